@@ -1,0 +1,486 @@
+"""Multi-step VRP and DCM preview in closed form (Sec. II-C, eqs. 5, 10, 13–23).
+
+Every block of the paper's matrices is (scalar)·I₃, so the mappings are stored as scalar
+weight matrices W (n_phi, n_wp) with A = kron(W, I₃). ξ_ref_0 and ξ_ref_T are computed by the
+O(n) backward iteration of eqs. (15), (17), (18) instead of the O(n³) inverses of eqs. (20),
+(21); the dense 3n matrices are built only on request.
+
+Phases are indexed from 0 here (φ = 1 … n_φ in the paper); phase φ runs from waypoint φ to
+waypoint φ + 1 (eqs. 11, 12).
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from dcmviz.dcm.interpolation import (
+    check_b,
+    check_durations,
+    check_order,
+    check_points,
+    f_tau_coefficients,
+    sigma_tau_coefficients,
+)
+
+_I3 = np.eye(3)
+
+
+def _read_only(array: NDArray) -> NDArray:
+    array.flags.writeable = False
+    return array
+
+
+class PhaseSchedule:
+    """The waypoint-independent part of a preview: durations T_φ, b, order and eq. (15).
+
+    Holds α_0,φ, β_0,φ, γ_0,φ of eq. (15), the σ polynomials of eq. (8) per phase, and the
+    scalar weight matrices of eqs. (20), (21) (computed lazily). Shared by every Preview built
+    from the same timing, since the mappings are linear in the waypoints.
+    """
+
+    def __init__(self, durations: ArrayLike, b: float, order: int) -> None:
+        self.order = check_order(order)
+        self.b = check_b(b)
+        self.durations = check_durations(durations)
+        T = self.durations
+        self.n_phases = int(T.size)
+        self.n_waypoints = self.n_phases + 1
+        # S[φ] = global start time of phase φ; S[n_φ] = total duration.
+        self.boundaries = _read_only(np.concatenate(([0.0], np.cumsum(T))))
+        self.phase_start_times = _read_only(self.boundaries[:-1].copy())
+        self.duration = float(self.boundaries[-1])
+
+        # Table I / eq. (8) in normalised time τ = t / T: f(τ) is the same for every phase,
+        # σ(τ) depends on b / T_φ. Time derivatives carry a factor 1 / T_φ.
+        self.f_coefficients = _read_only(f_tau_coefficients(self.order))
+        self.f_dot_coefficients = _read_only(f_tau_coefficients(self.order, 1))
+        s = sigma_tau_coefficients(T, self.b, self.order)
+        self.sigma_coefficients = _read_only(s)
+        k = np.arange(1, s.shape[1])
+        self.sigma_dot_coefficients = _read_only(
+            s[:, 1:] * k if s.shape[1] > 1 else np.zeros((self.n_phases, 1))
+        )
+        self.sigma_0 = _read_only(s[:, 0].copy())
+        self.sigma_T = _read_only(s.sum(axis=1))
+        # eq. (15)
+        self.gamma_0 = _read_only(np.exp(-T / self.b))
+        self.alpha_0 = _read_only(1.0 - self.sigma_0 - self.gamma_0 * (1.0 - self.sigma_T))
+        self.beta_0 = _read_only(self.sigma_0 - self.gamma_0 * self.sigma_T)
+
+        # Plain-float copies for the per-tick scalar path.
+        self._starts = self.phase_start_times.tolist()
+        self._T = T.tolist()
+        self._f = tuple(self.f_coefficients.tolist())[::-1]  # descending, for Horner
+        self._f_dot = tuple(self.f_dot_coefficients.tolist())[::-1]
+        self._sigma = [tuple(row[::-1]) for row in s.tolist()]
+        self._sigma_dot = [tuple(row[::-1]) for row in self.sigma_dot_coefficients.tolist()]
+
+    # --- phase lookup -----------------------------------------------------------------------
+
+    def locate(self, t: float) -> tuple[int, float]:
+        """Phase index and local time of a global scalar time t (clamped to [0, duration])."""
+        if t != t:
+            raise ValueError(f"t = {t!r}: time must be a number (s), not NaN")
+        if t <= 0.0:
+            return 0, 0.0
+        last = self.n_phases - 1
+        if t >= self.duration:
+            return last, self._T[last]
+        phi = bisect.bisect_right(self._starts, t) - 1
+        t_phi = t - self._starts[phi]
+        T = self._T[phi]
+        return phi, (t_phi if t_phi < T else T)
+
+    def locate_array(self, t: NDArray) -> tuple[NDArray, NDArray]:
+        """Vectorised ``locate`` for a 1-D array of global times."""
+        if np.isnan(t).any():
+            i = int(np.flatnonzero(np.isnan(t))[0])
+            raise ValueError(f"t[{i}] = nan: time must be a number (s), not NaN")
+        t = np.clip(t, 0.0, self.duration)
+        phi = np.searchsorted(self.phase_start_times, t, side="right") - 1
+        np.clip(phi, 0, self.n_phases - 1, out=phi)
+        t_phi = np.clip(t - self.phase_start_times[phi], 0.0, self.durations[phi])
+        return phi, t_phi
+
+    # --- eqs. (20), (21) as scalar weight matrices ----------------------------------------------
+
+    @cached_property
+    def W_xi_ref_T(self) -> NDArray[np.float64]:
+        """Scalar (n_phi, n_wp) weights of eq. (21): A_xi_ref_T = kron(W, I₃).
+
+        Backward iteration, eqs. (15), (17), (18): row[n_φ−1] = e_{n_wp−1};
+        row[φ−1] = α_0,φ e_φ + β_0,φ e_{φ+1} + γ_0,φ row[φ].
+        """
+        n = self.n_phases
+        W = np.zeros((n, self.n_waypoints))
+        W[n - 1, n] = 1.0
+        for phi in range(n - 1, 0, -1):
+            row = W[phi - 1]
+            np.multiply(W[phi, phi:], self.gamma_0[phi], out=row[phi:])
+            row[phi] += self.alpha_0[phi]
+            row[phi + 1] += self.beta_0[phi]
+        return _read_only(W)
+
+    @cached_property
+    def W_xi_ref_0(self) -> NDArray[np.float64]:
+        """Scalar (n_phi, n_wp) weights of eq. (20): A_xi_ref_0 = kron(W, I₃).
+
+        Eq. (15) row by row: row[φ] = α_0,φ e_φ + β_0,φ e_{φ+1} + γ_0,φ W_xi_ref_T[φ].
+        """
+        W = self.gamma_0[:, None] * self.W_xi_ref_T
+        phases = np.arange(self.n_phases)
+        W[phases, phases] += self.alpha_0
+        W[phases, phases + 1] += self.beta_0
+        return _read_only(W)
+
+    @cached_property
+    def A_xi_ref_0(self) -> NDArray[np.float64]:
+        """Dense (3 n_phi, 3 n_wp) matrix of eq. (20)."""
+        return _read_only(np.kron(self.W_xi_ref_0, _I3))
+
+    @cached_property
+    def A_xi_ref_T(self) -> NDArray[np.float64]:
+        """Dense (3 n_phi, 3 n_wp) matrix of eq. (21)."""
+        return _read_only(np.kron(self.W_xi_ref_T, _I3))
+
+    def xi_ref_T_row(self, phi: int) -> NDArray[np.float64]:
+        """Row φ of W_xi_ref_T (eq. 21) in O(n_wp), without the dense matrix.
+
+        Unrolls the backward iteration (15), (17), (18): with G(a, k) = Π_{m=a}^{k−1} γ_0,m
+        = exp(−(S_k − S_a)/b), row[φ]_j = G(φ+1, j) α_0,j + G(φ+1, j−1) β_0,j−1 for the
+        phases j > φ, and the terminal constraint (17) adds G(φ+1, n_φ) to the last waypoint.
+        """
+        a = phi + 1
+        S = self.boundaries
+        G = np.exp((S[a] - S[a:]) / self.b)  # G(a, j) for j = a … n_φ
+        row = np.zeros(self.n_waypoints)
+        row[a:-1] = G[:-1] * self.alpha_0[a:]
+        row[-1] = G[-1]  # terminal constraint (17)
+        row[a + 1 :] += G[:-1] * self.beta_0[a:]
+        return row
+
+    def first_xi_ref_0_row(self) -> NDArray[np.float64]:
+        """Row 0 of W_xi_ref_0 (eq. 20) in O(n_wp): eq. (15) applied to ``xi_ref_T_row(0)``."""
+        row = self.gamma_0[0] * self.xi_ref_T_row(0)
+        row[0] += self.alpha_0[0]
+        row[1] += self.beta_0[0]
+        return row
+
+    # --- eqs. (15), (17), (18) on waypoints ----------------------------------------------------
+
+    def backward_iteration(self, waypoints: NDArray) -> tuple[NDArray, NDArray]:
+        """ξ_ref_0 and ξ_ref_T (n_phi, 3) of eqs. (20), (21) by O(n) backward iteration.
+
+        ξ_ref_T,last = v_wp,last (17); ξ_ref_0,φ = α_0 v_wp,φ + β_0 v_wp,φ+1 + γ_0 ξ_ref_T,φ (15);
+        ξ_ref_T,φ−1 = ξ_ref_0,φ (18).
+        """
+        c = self.alpha_0[:, None] * waypoints[:-1] + self.beta_0[:, None] * waypoints[1:]
+        gamma_0 = self.gamma_0.tolist()
+        c_list = c.tolist()
+        n = self.n_phases
+        xi_0: list[list[float]] = [[0.0, 0.0, 0.0]] * n
+        x, y, z = waypoints[-1].tolist()
+        for phi in range(n - 1, -1, -1):
+            g = gamma_0[phi]
+            cx, cy, cz = c_list[phi]
+            x, y, z = cx + g * x, cy + g * y, cz + g * z
+            xi_0[phi] = [x, y, z]
+        xi_ref_0 = np.array(xi_0)
+        xi_ref_T = np.empty_like(xi_ref_0)
+        xi_ref_T[:-1] = xi_ref_0[1:]
+        xi_ref_T[-1] = waypoints[-1]
+        return _read_only(xi_ref_0), _read_only(xi_ref_T)
+
+
+def _horner(coefficients_descending: tuple[float, ...], x: float) -> float:
+    result = 0.0
+    for c in coefficients_descending:
+        result = result * x + c
+    return result
+
+
+def _horner_rows(coefficients: NDArray, x: NDArray) -> NDArray:
+    """Σ_k coefficients[:, k] x^k for each row (N, K) and x (N,)."""
+    result = np.zeros_like(x)
+    for k in range(coefficients.shape[1] - 1, -1, -1):
+        result *= x
+        result += coefficients[:, k]
+    return result
+
+
+class Preview:
+    """Closed-form multi-step VRP and DCM reference trajectories (Sec. II, eqs. 5, 10, 13–23).
+
+    ``waypoints`` (n_wp, 3) are the VRP waypoints v_wp (m), ``durations`` (n_wp − 1,) the
+    transition phase durations T_φ (s), ``b`` the DCM time constant (s), ``order`` the VRP
+    polynomial order n_poly of Table I (0, 1, 3 or 5). Immutable once built.
+
+    Time arguments are global times (s) clamped to [0, duration]; a float gives a (3,) result,
+    a 1-D array of N times an (N, 3) result.
+    """
+
+    def __init__(self, waypoints: ArrayLike, durations: ArrayLike, b: float, order: int) -> None:
+        schedule = PhaseSchedule(durations, b, order)
+        self._init(schedule, _check_waypoints(waypoints, schedule.n_phases))
+
+    @classmethod
+    def _from_schedule(cls, schedule: PhaseSchedule, waypoints: NDArray) -> Preview:
+        preview = cls.__new__(cls)
+        preview._init(schedule, waypoints)
+        return preview
+
+    def _init(self, schedule: PhaseSchedule, waypoints: NDArray) -> None:
+        xi_ref_0, xi_ref_T = schedule.backward_iteration(waypoints)
+        v_ref_0 = waypoints[:-1]  # eq. (13)
+        v_ref_T = waypoints[1:]  # eq. (14)
+        dv = v_ref_T - v_ref_0
+        # eq. (10) regrouped: ξ(t) = v_ref_0 + σ(t) Δv + γ(t) r, r = ξ_ref_T − v_ref_0 − σ_T Δv
+        r = xi_ref_T - v_ref_0 - schedule.sigma_T[:, None] * dv
+        self.__dict__.update(
+            _schedule=schedule,
+            _waypoints=waypoints,
+            _xi_ref_0=xi_ref_0,
+            _xi_ref_T=xi_ref_T,
+            _v_ref_0=v_ref_0,
+            _dv=_read_only(dv),
+            _r=_read_only(r),
+            _v0_list=[tuple(row) for row in v_ref_0.tolist()],
+            _dv_list=[tuple(row) for row in dv.tolist()],
+            _r_list=[tuple(row) for row in r.tolist()],
+        )
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError(f"Preview is immutable; use with_waypoints() (tried to set {name})")
+
+    def __repr__(self) -> str:
+        s = self._schedule
+        return (
+            f"Preview(n_wp={s.n_waypoints}, n_phases={s.n_phases}, duration={s.duration:.3f} s, "
+            f"b={s.b} s, order={s.order})"
+        )
+
+    # --- plain attributes -----------------------------------------------------------------------
+
+    @property
+    def waypoints(self) -> NDArray[np.float64]:
+        """VRP waypoints v_wp (n_wp, 3), m."""
+        return self._waypoints
+
+    @property
+    def durations(self) -> NDArray[np.float64]:
+        """Transition phase durations T_φ (n_phi,), s."""
+        return self._schedule.durations
+
+    @property
+    def b(self) -> float:
+        """DCM time constant b (s), eq. (1)."""
+        return self._schedule.b
+
+    @property
+    def order(self) -> int:
+        """VRP polynomial order n_poly of Table I."""
+        return self._schedule.order
+
+    @property
+    def n_phases(self) -> int:
+        """Number of transition phases n_φ = n_wp − 1."""
+        return self._schedule.n_phases
+
+    @property
+    def duration(self) -> float:
+        """Total preview duration Σ T_φ (s)."""
+        return self._schedule.duration
+
+    @property
+    def phase_start_times(self) -> NDArray[np.float64]:
+        """Global start time (s) of each phase, (n_phi,)."""
+        return self._schedule.phase_start_times
+
+    @property
+    def xi_ref_0(self) -> NDArray[np.float64]:
+        """DCM reference start point of each phase (n_phi, 3), eq. (20)."""
+        return self._xi_ref_0
+
+    @property
+    def xi_ref_T(self) -> NDArray[np.float64]:
+        """DCM reference end point of each phase (n_phi, 3), eq. (21)."""
+        return self._xi_ref_T
+
+    @property
+    def W_xi_ref_0(self) -> NDArray[np.float64]:
+        """Scalar weights (n_phi, n_wp) of eq. (20): xi_ref_0 = W_xi_ref_0 @ waypoints."""
+        return self._schedule.W_xi_ref_0
+
+    @property
+    def W_xi_ref_T(self) -> NDArray[np.float64]:
+        """Scalar weights (n_phi, n_wp) of eq. (21): xi_ref_T = W_xi_ref_T @ waypoints."""
+        return self._schedule.W_xi_ref_T
+
+    @property
+    def A_xi_ref_0(self) -> NDArray[np.float64]:
+        """Matrix A_xi_ref_0 (3 n_phi, 3 n_wp) of eq. (20), = kron(W_xi_ref_0, I₃)."""
+        return self._schedule.A_xi_ref_0
+
+    @property
+    def A_xi_ref_T(self) -> NDArray[np.float64]:
+        """Matrix A_xi_ref_T (3 n_phi, 3 n_wp) of eq. (21), = kron(W_xi_ref_T, I₃)."""
+        return self._schedule.A_xi_ref_T
+
+    # --- evaluation -------------------------------------------------------------------------------
+
+    def phase_at(self, t: float | ArrayLike) -> tuple[int, float] | tuple[NDArray, NDArray]:
+        """0-based phase index φ and local time t_φ (s) of global time t (eq. 5's t_φ).
+
+        At a phase boundary the later phase is returned, except at t = duration (last phase,
+        t_φ = T_last). Vectorised: a 1-D array gives (int array, float array).
+        """
+        t = _as_time(t)
+        if isinstance(t, float):
+            return self._schedule.locate(t)
+        return self._schedule.locate_array(t)
+
+    def vrp(self, t: float | ArrayLike) -> NDArray[np.float64]:
+        """VRP reference v_ref(t) (m), eq. (5) with eqs. (11), (12)."""
+        t = _as_time(t)
+        s = self._schedule
+        if isinstance(t, float):
+            phi, t_phi = s.locate(t)
+            f = _horner(s._f, t_phi / s._T[phi])
+            v0, dv = self._v0_list[phi], self._dv_list[phi]
+            return np.array((v0[0] + f * dv[0], v0[1] + f * dv[1], v0[2] + f * dv[2]))
+        phi, t_phi = s.locate_array(t)
+        f = np.polynomial.polynomial.polyval(t_phi / s.durations[phi], s.f_coefficients)
+        return self._v_ref_0[phi] + f[:, None] * self._dv[phi]
+
+    def vrp_velocity(self, t: float | ArrayLike) -> NDArray[np.float64]:
+        """VRP reference velocity (m/s): ḟ(t) (v_ref_T − v_ref_0), time derivative of eq. (5)."""
+        t = _as_time(t)
+        s = self._schedule
+        if isinstance(t, float):
+            phi, t_phi = s.locate(t)
+            T = s._T[phi]
+            f_dot = _horner(s._f_dot, t_phi / T) / T
+            dv = self._dv_list[phi]
+            return np.array((f_dot * dv[0], f_dot * dv[1], f_dot * dv[2]))
+        phi, t_phi = s.locate_array(t)
+        T = s.durations[phi]
+        f_dot = np.polynomial.polynomial.polyval(t_phi / T, s.f_dot_coefficients) / T
+        return f_dot[:, None] * self._dv[phi]
+
+    def dcm(self, t: float | ArrayLike) -> NDArray[np.float64]:
+        """DCM reference ξ_ref(t) (m), eq. (10) with ξ_ref_T from eq. (21) (equivalently 22/23)."""
+        t = _as_time(t)
+        s = self._schedule
+        if isinstance(t, float):
+            phi, t_phi = s.locate(t)
+            T = s._T[phi]
+            sig = _horner(s._sigma[phi], t_phi / T)
+            g = math.exp((t_phi - T) / s.b)
+            v0, dv, r = self._v0_list[phi], self._dv_list[phi], self._r_list[phi]
+            return np.array(
+                (
+                    v0[0] + sig * dv[0] + g * r[0],
+                    v0[1] + sig * dv[1] + g * r[1],
+                    v0[2] + sig * dv[2] + g * r[2],
+                )
+            )
+        phi, t_phi = s.locate_array(t)
+        T = s.durations[phi]
+        sig = _horner_rows(s.sigma_coefficients[phi], t_phi / T)
+        g = np.exp((t_phi - T) / s.b)
+        return self._v_ref_0[phi] + sig[:, None] * self._dv[phi] + g[:, None] * self._r[phi]
+
+    def dcm_velocity(self, t: float | ArrayLike) -> NDArray[np.float64]:
+        """DCM reference velocity ξ̇_ref(t) (m/s): time derivative of eq. (10), = (ξ − v)/b (6)."""
+        t = _as_time(t)
+        s = self._schedule
+        if isinstance(t, float):
+            phi, t_phi = s.locate(t)
+            T = s._T[phi]
+            sig_dot = _horner(s._sigma_dot[phi], t_phi / T) / T
+            g = math.exp((t_phi - T) / s.b) / s.b
+            dv, r = self._dv_list[phi], self._r_list[phi]
+            return np.array(
+                (sig_dot * dv[0] + g * r[0], sig_dot * dv[1] + g * r[1], sig_dot * dv[2] + g * r[2])
+            )
+        phi, t_phi = s.locate_array(t)
+        T = s.durations[phi]
+        sig_dot = _horner_rows(s.sigma_dot_coefficients[phi], t_phi / T) / T
+        g = np.exp((t_phi - T) / s.b) / s.b
+        return sig_dot[:, None] * self._dv[phi] + g[:, None] * self._r[phi]
+
+    def dcm_weights(self, t: float | ArrayLike) -> NDArray[np.float64]:
+        """Scalar weights w (n_wp,) with ξ_ref(t) = w @ waypoints, eqs. (22), (23).
+
+        A_xi_ref_φ(t) = kron(w, I₃) = α_φ(t) 3row(A_v_ref_0, φ) + β_φ(t) 3row(A_v_ref_T, φ)
+        + γ_φ(t) 3row(A_xi_ref_T, φ). A float costs O(n_wp) (row of eq. 21 by backward
+        iteration); a 1-D array of N times gives (N, n_wp) from the cached W_xi_ref_T.
+        """
+        t = _as_time(t)
+        s = self._schedule
+        if isinstance(t, float):
+            phi, t_phi = s.locate(t)
+            T = s._T[phi]
+            sig = _horner(s._sigma[phi], t_phi / T)
+            g = math.exp((t_phi - T) / s.b)
+            sigma_T = float(s.sigma_T[phi])
+            w = g * s.xi_ref_T_row(phi)
+            w[phi] += 1.0 - sig - g * (1.0 - sigma_T)  # α_φ(t), eq. (10)
+            w[phi + 1] += sig - g * sigma_T  # β_φ(t), eq. (10)
+            return w
+        phi, t_phi = s.locate_array(t)
+        T = s.durations[phi]
+        sig = _horner_rows(s.sigma_coefficients[phi], t_phi / T)
+        g = np.exp((t_phi - T) / s.b)
+        sigma_T = s.sigma_T[phi]
+        w = g[:, None] * s.W_xi_ref_T[phi]
+        rows = np.arange(t.size)
+        w[rows, phi] += 1.0 - sig - g * (1.0 - sigma_T)
+        w[rows, phi + 1] += sig - g * sigma_T
+        return w
+
+    def with_waypoints(self, waypoints: ArrayLike) -> Preview:
+        """A new Preview with the same durations, b and order and new VRP waypoints.
+
+        Reuses the timing data and any cached weight matrices (eqs. 20, 21 are linear in v_wp,
+        cf. eqs. 27, 28); costs one O(n) backward iteration.
+        """
+        s = self._schedule
+        return Preview._from_schedule(s, _check_waypoints(waypoints, s.n_phases))
+
+
+def _check_waypoints(waypoints: ArrayLike, n_phases: int) -> NDArray[np.float64]:
+    array = check_points(waypoints, "waypoints", (None, 3))
+    n_wp = array.shape[0]
+    if n_wp < 2:
+        raise ValueError(
+            f"waypoints has {n_wp} row(s): a preview needs at least 2 VRP waypoints (n_wp ≥ 2)"
+        )
+    if n_wp != n_phases + 1:
+        raise ValueError(
+            f"waypoints has {n_wp} rows but durations has {n_phases} entries: "
+            "need exactly one phase duration between consecutive waypoints (n_phi = n_wp − 1)"
+        )
+    return array
+
+
+def _as_time(t: float | ArrayLike) -> float | NDArray[np.float64]:
+    """A Python float for scalar times, a float 1-D array otherwise."""
+    if type(t) is float:
+        return t
+    if isinstance(t, (int, np.integer, np.floating)) and not isinstance(t, bool):
+        return float(t)
+    try:
+        array = np.asarray(t, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"t = {t!r}: time must be a float or a 1-D array of floats (s)") from error
+    if array.ndim == 0:
+        return float(array)
+    if array.ndim != 1:
+        raise ValueError(f"t has shape {array.shape}: time must be a float or a 1-D array (s)")
+    return array
