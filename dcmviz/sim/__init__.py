@@ -1,0 +1,1 @@
+"""Backends that realise the walker's commands: a point mass (`lip`) and MuJoCo humanoids."""

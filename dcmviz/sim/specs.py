@@ -1,0 +1,83 @@
+"""Planning facts about each robot, cheap to import (no MuJoCo, no Pinocchio).
+
+The numbers are checked against the loaded models in ``tests/test_robots.py``; the models
+themselves are built in :mod:`dcmviz.sim.robots`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from dcmviz import GRAVITY
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    name: str
+    mass_kg: float  # total mass of the simulated model
+    com_height_m: float  # CoM above the soles in the nominal standing posture
+    foot_length_m: float  # sole support rectangle, x extent
+    foot_width_m: float  # sole support rectangle, y extent
+    foot_spacing_m: float  # nominal lateral distance between the sole centres
+    max_step_length_m: float  # reach: |Δx| of one step relative to the stance foot
+    max_step_width_m: float  # reach: largest lateral distance between the feet
+    min_step_width_m: float  # feet closer than this collide
+    max_step_height_m: float  # |Δz| of one step
+    bodies: dict[str, str]  # push target name -> link name in the URDF
+
+    @property
+    def b_nominal_s(self) -> float:
+        """b = sqrt(Δz_vrp / g) with Δz_vrp the nominal CoM height (eq. 1)."""
+        return (self.com_height_m / GRAVITY) ** 0.5
+
+
+SPECS: dict[str, RobotSpec] = {
+    "talos": RobotSpec(
+        name="talos",
+        mass_kg=90.27,
+        com_height_m=0.877,
+        foot_length_m=0.21,
+        foot_width_m=0.13,
+        foot_spacing_m=0.17,
+        max_step_length_m=0.45,
+        max_step_width_m=0.50,
+        min_step_width_m=0.14,
+        max_step_height_m=0.15,
+        bodies={
+            "torso": "torso_2_link",
+            "pelvis": "base_link",
+            "left_thigh": "leg_left_3_link",
+            "right_thigh": "leg_right_3_link",
+        },
+    ),
+    "g1": RobotSpec(
+        name="g1",
+        mass_kg=33.34,
+        com_height_m=0.670,  # above the sole plane of the foot spheres (bottoms 0.035 m below ankle)
+        foot_length_m=0.17,
+        foot_width_m=0.06,
+        foot_spacing_m=0.237,  # sole centres with hip roll 0 in the URDF
+        max_step_length_m=0.30,
+        max_step_width_m=0.40,
+        min_step_width_m=0.10,
+        max_step_height_m=0.10,
+        bodies={
+            "torso": "torso_link",
+            "pelvis": "pelvis",
+            "left_thigh": "left_hip_yaw_link",
+            "right_thigh": "right_hip_yaw_link",
+        },
+    ),
+}
+
+ROBOT_NAMES = tuple(SPECS)
+
+
+def get_spec(name: str) -> RobotSpec:
+    """The spec of robot ``name``; ValueError naming the allowed robots otherwise."""
+    try:
+        return SPECS[name]
+    except KeyError:
+        raise ValueError(
+            f"robot.model = {name!r}: unknown robot; allowed: {', '.join(ROBOT_NAMES)}"
+        ) from None
