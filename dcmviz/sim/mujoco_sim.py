@@ -1,0 +1,186 @@
+"""MuJoCo humanoid backend: physics at 1 kHz, state estimation through Pinocchio, pushes, falls.
+
+Each control tick (``control_dt``): Pinocchio evaluates the simulated state (CoM, ẋ, soles,
+M, h, Jacobians), the whole-body QP (:mod:`dcmviz.sim.wbc`) turns the walker's command into
+joint torques, and MuJoCo integrates ``control_dt / physics_dt`` substeps with those torques held.
+"""
+
+from __future__ import annotations
+
+import time
+
+import mujoco
+import numpy as np
+
+from dcmviz import GRAVITY
+from dcmviz.sim.robots import SIDES, Robot, load_robot
+from dcmviz.sim.wbc import Context, Gains, WholeBodyController
+from dcmviz.state import MeasuredState, WalkerCommand
+
+
+class MujocoBackend:
+    """A Talos or G1 in MuJoCo, torque-controlled by a whole-body QP."""
+
+    name = "mujoco"
+
+    def __init__(
+        self,
+        robot: str = "talos",
+        *,
+        control_dt: float = 0.002,
+        physics_dt: float = 0.001,
+        gains: Gains | None = None,
+    ) -> None:
+        if not (np.isfinite(control_dt) and control_dt > 0):
+            raise ValueError(f"control_dt = {control_dt!r}: must be > 0")
+        if not (np.isfinite(physics_dt) and 0 < physics_dt <= control_dt):
+            raise ValueError(f"physics_dt = {physics_dt!r}: must be in (0, control_dt]")
+        self.robot: Robot = load_robot(robot)
+        self.spec = self.robot.spec
+        self.mass = self.robot.mass
+        self.control_dt = float(control_dt)
+        self.physics_dt = float(physics_dt)
+        self.n_substeps = max(1, round(control_dt / physics_dt))
+        self.model = self.robot.mj_model
+        self.model.opt.timestep = self.control_dt / self.n_substeps
+        self.data = mujoco.MjData(self.model)
+        self.wbc = WholeBodyController(self.robot, gains)
+        self.timings = {
+            "physics": 0.0,
+            "pinocchio": 0.0,
+            "qp_build": 0.0,
+            "qp_solve": 0.0,
+            "other": 0.0,
+        }
+        self._body_ids = {n: i for i in range(self.model.nbody) if (n := self.model.body(i).name)}
+        self._ctx: Context | None = None
+        self._contact = {s: False for s in SIDES}
+        self._contact_force = {s: 0.0 for s in SIDES}
+        self.t = 0.0
+        self.reset()
+
+    # ------------------------------------------------------------------------------------
+    def reset(self) -> MeasuredState:
+        """Nominal standing posture, soles at (0, ±spacing/2, 0), zero velocity, t = 0."""
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[:] = self.robot.qpos_mj(self.robot.q_nominal)
+        self.data.xfrc_applied[:] = 0.0
+        mujoco.mj_forward(self.model, self.data)
+        self.t = 0.0
+        self.wbc._tau = np.zeros(self.robot.nu)
+        for k in self.timings:
+            self.timings[k] = 0.0
+        self.wbc.timings["qp_build"] = self.wbc.timings["qp_solve"] = 0.0
+        return self.measure()
+
+    def _update(self) -> Context:
+        t0 = time.perf_counter()
+        d = self.data
+        q = self.robot.q_pin(d.qpos)
+        v = self.robot.v_pin(d.qpos, d.qvel)
+        self._ctx = self.wbc.kinematics.context(q, v)
+        t1 = time.perf_counter()
+        self._measure_contacts()
+        self.timings["pinocchio"] += t1 - t0
+        self.timings["other"] += time.perf_counter() - t1
+        return self._ctx
+
+    def _measure_contacts(self) -> None:
+        d, m = self.data, self.model
+        fn = {s: 0.0 for s in SIDES}
+        geom_side = {g: s for s, g in self.robot.sole_geoms.items()}
+        wrench = np.zeros(6)
+        for i in range(d.ncon):
+            con = d.contact[i]
+            side = geom_side.get(con.geom1) or geom_side.get(con.geom2)
+            if side is None:
+                continue
+            mujoco.mj_contactForce(m, d, i, wrench)
+            fn[side] += wrench[0]
+        threshold = 0.01 * self.mass * GRAVITY
+        self._contact_force = fn
+        self._contact = {s: fn[s] > threshold for s in SIDES}
+
+    def measure(self) -> MeasuredState:
+        """CoM, CoM velocity (Pinocchio on the simulated state), sole poses, measured contact."""
+        ctx = self._update()
+        feet_yaw = {
+            s: float(np.arctan2(ctx.sole_rotation[s][1, 0], ctx.sole_rotation[s][0, 0]))
+            for s in SIDES
+        }
+        return MeasuredState(
+            t=self.t,
+            com=ctx.com.copy(),
+            com_velocity=ctx.com_velocity.copy(),
+            feet={s: ctx.sole_position[s].copy() for s in SIDES},
+            feet_yaw=feet_yaw,
+            in_contact=dict(self._contact),
+            mass=self.mass,
+        )
+
+    def step(self, command: WalkerCommand) -> MeasuredState:
+        """One control period: whole-body QP → torques → physics substeps → measurement."""
+        ctx = self._ctx if self._ctx is not None else self._update()
+        sol = self.wbc.solve(ctx, command, self._contact)
+        self.data.ctrl[:] = sol.tau
+        t0 = time.perf_counter()
+        for _ in range(self.n_substeps):
+            mujoco.mj_step(self.model, self.data)
+        self.timings["physics"] += time.perf_counter() - t0
+        self.timings["qp_build"] = self.wbc.timings["qp_build"]
+        self.timings["qp_solve"] = self.wbc.timings["qp_solve"]
+        self.t += self.control_dt
+        return self.measure()
+
+    # ------------------------------------------------------------------------------------
+    def _body_id(self, body: str) -> int:
+        link = self.spec.bodies.get(body, body)
+        if link not in self._body_ids or link == "world":
+            allowed = ", ".join(list(self.spec.bodies) + ["or a link name"])
+            raise ValueError(f"body {body!r}: unknown body of {self.spec.name}; allowed: {allowed}")
+        return self._body_ids[link]
+
+    def set_external_force(self, body: str, force: np.ndarray) -> None:
+        """Persistent world-frame force (N) at the CoM of ``body`` (alias or link name)."""
+        f = np.asarray(force, dtype=float)
+        if f.shape != (3,) or not np.all(np.isfinite(f)):
+            raise ValueError(f"force = {force!r}: must be 3 finite numbers (N)")
+        bid = self._body_id(body)
+        self.data.xfrc_applied[bid, :3] = f
+        self.data.xfrc_applied[bid, 3:] = 0.0
+
+    def clear_external_forces(self) -> None:
+        """Remove every external force."""
+        self.data.xfrc_applied[:] = 0.0
+
+    def fell(self) -> bool:
+        """Base below 55 % of its nominal height above the soles, or tilted more than 45°."""
+        d = self.data
+        base_z = d.qpos[2] - min(d.site_xpos[self.robot.sole_sites[s]][2] for s in SIDES)
+        nominal = self.robot.q_nominal[2]
+        up = d.xmat[1].reshape(3, 3)[2, 2]  # cos(tilt) of the root body
+        return bool(
+            base_z < 0.55 * nominal or up < np.cos(np.radians(45.0)) or d.qpos[2] < 0.55 * nominal
+        )
+
+    # --- drawing / recording -------------------------------------------------------------
+    def qpos_by_joint(self) -> dict[str, float]:
+        """Angle of every actuated joint, rad (locked upper-body joints are at their nominal)."""
+        return {
+            j: float(self.data.qpos[a])
+            for j, a in zip(self.robot.joint_names, self.robot.qpos_adr, strict=True)
+        }
+
+    def base_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Base position (m) and orientation quaternion (w, x, y, z)."""
+        return self.data.qpos[:3].copy(), self.data.qpos[3:7].copy()
+
+    def body_poses(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """Every named body: world position (m) and quaternion (w, x, y, z)."""
+        d = self.data
+        return {n: (d.xpos[i].copy(), d.xquat[i].copy()) for n, i in self._body_ids.items()}
+
+    @property
+    def contact_forces(self) -> dict[str, float]:
+        """Measured normal force under each sole, N."""
+        return dict(self._contact_force)
