@@ -50,7 +50,7 @@ def check_b(b: object) -> float:
         raise ValueError(f"b = {b!r}: the DCM time constant must be a real number > 0 s")
     value = float(b)
     if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(f"b = {b!r}: the DCM time constant must be finite and > 0 s")
+        raise ValueError(f"b = {value!r}: the DCM time constant must be finite and > 0 s")
     return value
 
 
@@ -71,7 +71,7 @@ def check_durations(durations: ArrayLike, name: str = "durations") -> NDArray[np
     if bad.size:
         i = int(bad[0])
         raise ValueError(
-            f"{name}[{i}] = {array[i]!r}: every phase duration must be finite and > 0 s"
+            f"{name}[{i}] = {float(array[i])!r}: every phase duration must be finite and > 0 s"
         )
     array.flags.writeable = False
     return array
@@ -85,7 +85,8 @@ def check_points(points: ArrayLike, name: str, shape: tuple[int | None, int]) ->
         raise ValueError(f"{name} = {points!r}: must be an array of coordinates in m") from error
     if len(shape) == 2 and array.size == 0 and shape[0] in (None, 0):
         array = array.reshape(0, shape[1])
-    expected = tuple("n" if s is None else s for s in shape)
+    expected = ", ".join("n" if s is None else str(s) for s in shape)
+    expected = f"({expected},)" if len(shape) == 1 else f"({expected})"
     if array.ndim != len(shape) or any(
         s is not None and s != a for s, a in zip(shape, array.shape, strict=True)
     ):
@@ -96,7 +97,9 @@ def check_points(points: ArrayLike, name: str, shape: tuple[int | None, int]) ->
     if bad.size:
         index = tuple(int(i) for i in bad[0])
         where = ", ".join(str(i) for i in index)
-        raise ValueError(f"{name}[{where}] = {array[index]!r}: every coordinate must be finite")
+        raise ValueError(
+            f"{name}[{where}] = {float(array[index])!r}: every coordinate must be finite"
+        )
     array.flags.writeable = False
     return array
 
