@@ -12,7 +12,6 @@ import time
 import mujoco
 import numpy as np
 
-from dcmviz import GRAVITY
 from dcmviz.sim.robots import SIDES, Robot, load_robot
 from dcmviz.sim.wbc import Context, Gains, WholeBodyController
 from dcmviz.state import MeasuredState, WalkerCommand
@@ -86,8 +85,10 @@ class MujocoBackend:
         return self._ctx
 
     def _measure_contacts(self) -> None:
+        """A sole is in contact if it touches the floor; also sums its normal force (N)."""
         d, m = self.data, self.model
         fn = {s: 0.0 for s in SIDES}
+        touching = {s: False for s in SIDES}
         geom_side = {g: s for s, g in self.robot.sole_geoms.items()}
         wrench = np.zeros(6)
         for i in range(d.ncon):
@@ -95,11 +96,11 @@ class MujocoBackend:
             side = geom_side.get(con.geom1) or geom_side.get(con.geom2)
             if side is None:
                 continue
+            touching[side] = True
             mujoco.mj_contactForce(m, d, i, wrench)
             fn[side] += wrench[0]
-        threshold = 0.01 * self.mass * GRAVITY
         self._contact_force = fn
-        self._contact = {s: fn[s] > threshold for s in SIDES}
+        self._contact = touching
 
     def measure(self) -> MeasuredState:
         """CoM, CoM velocity (Pinocchio on the simulated state), sole poses, measured contact."""

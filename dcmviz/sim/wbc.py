@@ -49,9 +49,10 @@ class Gains:
     kd_base: float = 35.0
     kp_posture: float = 30.0
     kd_posture: float = 10.0
+    touchdown_depth: float = 0.01  # m below the footstep for a support foot not yet touching
     kd_stance: float = 10.0  # stance foot: a = -kd v (kills drift)
     k_angular_momentum: float = 5.0  # L̇ = -k L
-    w_force: float = 10.0
+    w_force: float = 100.0
     w_angular_momentum: float = 0.5
     w_base: float = 3.0
     w_foot: float = 100.0
@@ -191,10 +192,17 @@ class BaseOrientationTask(Task):
 
 
 class FootTask(Task):
-    """Sole acceleration J q̈ + J̇ q̇ = a_ff + kp e + kd ė (position and yaw, roll/pitch flat)."""
+    """Sole acceleration J q̈ + J̇ q̇ = a_ff + kp e + kd ė (position and yaw, roll/pitch flat).
 
-    def __init__(self, side: str, layout: Layout, kp: float, kd: float, weight: float) -> None:
+    A foot scheduled as support that does not touch yet tracks a target ``touchdown_depth``
+    below its footstep, so it lands firmly instead of hovering on the floor.
+    """
+
+    def __init__(
+        self, side: str, layout: Layout, kp: float, kd: float, weight: float, depth: float
+    ) -> None:
         self.side, self.kp, self.kd, self.weight = side, kp, kd, weight
+        self.touchdown_depth = depth
         self.A = np.zeros((6, layout.nx))
         self.nv = layout.nv
 
@@ -202,11 +210,14 @@ class FootTask(Task):
         if ctx.active[self.side]:
             return None  # held by the stance constraint
         target = cmd.feet[self.side]
+        position = np.array(target.position, dtype=float)
+        if cmd.support[self.side]:  # scheduled down but not touching: keep going down
+            position[2] -= self.touchdown_depth
         b = np.empty(6)
         vel = ctx.sole_velocity[self.side]
         b[:3] = (
             np.asarray(target.acceleration)
-            + self.kp * (np.asarray(target.position) - ctx.sole_position[self.side])
+            + self.kp * (position - ctx.sole_position[self.side])
             + self.kd * (np.asarray(target.velocity) - vel[:3])
         )
         err = pin.log3(_rot_z(target.yaw) @ ctx.sole_rotation[self.side].T)
@@ -367,7 +378,7 @@ class WholeBodyController:
             ContactForceTask(lay, mass, g.w_force),
             AngularMomentumTask(lay, mass, g.k_angular_momentum, g.w_angular_momentum),
             BaseOrientationTask(lay, g.kp_base, g.kd_base, g.w_base),
-            *(FootTask(s, lay, g.kp_foot, g.kd_foot, g.w_foot) for s in SIDES),
+            *(FootTask(s, lay, g.kp_foot, g.kd_foot, g.w_foot, g.touchdown_depth) for s in SIDES),
             PostureTask(robot, lay, g.kp_posture, g.kd_posture, g.w_posture),
         ]
         self.constraints: list[Constraint] = [
