@@ -32,7 +32,7 @@ _F_TAU_COEFFICIENTS: dict[int, tuple[float, ...]] = {
 
 
 def check_order(order: object) -> int:
-    """Return ``order`` as an int, or raise ValueError unless it is one of Table I's orders."""
+    """Return ``order`` as an int, or raise ValueError unless it is an n_poly of Table I."""
     if (
         isinstance(order, bool)
         or not isinstance(order, numbers.Integral)
@@ -45,7 +45,7 @@ def check_order(order: object) -> int:
 
 
 def check_b(b: object) -> float:
-    """Return the DCM time constant ``b`` as a float, or raise ValueError unless finite and > 0."""
+    """Return the DCM time constant b of eq. (1) as a float; ValueError unless finite and > 0."""
     if isinstance(b, bool) or not isinstance(b, numbers.Real):
         raise ValueError(f"b = {b!r}: the DCM time constant must be a real number > 0 s")
     value = float(b)
@@ -55,7 +55,7 @@ def check_b(b: object) -> float:
 
 
 def check_durations(durations: ArrayLike, name: str = "durations") -> NDArray[np.float64]:
-    """Return ``durations`` as a read-only float (n_phi,) array of finite values > 0 s."""
+    """Return the phase durations T_φ (eq. 5) as a read-only (n_phi,) array, all finite > 0 s."""
     try:
         array = np.array(durations, dtype=np.float64)
     except (TypeError, ValueError) as error:
@@ -78,7 +78,7 @@ def check_durations(durations: ArrayLike, name: str = "durations") -> NDArray[np
 
 
 def check_points(points: ArrayLike, name: str, shape: tuple[int | None, int]) -> NDArray:
-    """Return ``points`` as a read-only float array of ``shape`` (None: any length), all finite."""
+    """Return VRP points (eqs. 11–14, 25) as a read-only array of ``shape`` (None: any length)."""
     try:
         array = np.array(points, dtype=np.float64)
     except (TypeError, ValueError) as error:

@@ -83,7 +83,7 @@ class PhaseSchedule:
     # --- phase lookup -----------------------------------------------------------------------
 
     def locate(self, t: float) -> tuple[int, float]:
-        """Phase index and local time of a global scalar time t (clamped to [0, duration])."""
+        """Phase φ and local time t_φ (eq. 5) of a global scalar time t, clamped to [0, duration]."""
         if t != t:
             raise ValueError(f"t = {t!r}: time must be a number (s), not NaN")
         if t <= 0.0:
@@ -97,7 +97,7 @@ class PhaseSchedule:
         return phi, (t_phi if t_phi < T else T)
 
     def locate_array(self, t: NDArray) -> tuple[NDArray, NDArray]:
-        """Vectorised ``locate`` for a 1-D array of global times."""
+        """Phases φ and local times t_φ (eq. 5) of a 1-D array of global times, vectorised."""
         if np.isnan(t).any():
             i = int(np.flatnonzero(np.isnan(t))[0])
             raise ValueError(f"t[{i}] = nan: time must be a number (s), not NaN")
