@@ -55,6 +55,8 @@ class MujocoBackend:
         self._ctx: Context | None = None
         self._contact = {s: False for s in SIDES}
         self._contact_force = {s: 0.0 for s in SIDES}
+        self._applied = np.zeros(3)
+        self._geom_side = {g: s for s, g in self.robot.sole_geoms.items()}
         self.t = 0.0
         self.reset()
 
@@ -89,21 +91,28 @@ class MujocoBackend:
         d, m = self.data, self.model
         fn = {s: 0.0 for s in SIDES}
         touching = {s: False for s in SIDES}
-        geom_side = {g: s for s, g in self.robot.sole_geoms.items()}
+        total = np.zeros(3)
         wrench = np.zeros(6)
         for i in range(d.ncon):
             con = d.contact[i]
-            side = geom_side.get(con.geom1) or geom_side.get(con.geom2)
+            side = self._geom_side.get(con.geom1) or self._geom_side.get(con.geom2)
             if side is None:
                 continue
             touching[side] = True
             mujoco.mj_contactForce(m, d, i, wrench)
             fn[side] += wrench[0]
+            # contact frame rows: normal (from geom1 to geom2), tangents; force acts on geom2
+            sign = 1.0 if con.geom2 == self.robot.sole_geoms[side] else -1.0
+            total += sign * (con.frame.reshape(3, 3).T @ wrench[:3])
         self._contact_force = fn
         self._contact = touching
+        self._applied = total
 
     def measure(self) -> MeasuredState:
-        """CoM, CoM velocity (Pinocchio on the simulated state), sole poses, measured contact."""
+        """CoM, CoM velocity (Pinocchio on the simulated state), sole poses, measured contact.
+
+        ``applied_contact_force`` is the sum of MuJoCo's sole contact forces (world frame, N), the
+        force-sensor measurement the observer's eq. (42) uses as the known force."""
         ctx = self._update()
         feet_yaw = {
             s: float(np.arctan2(ctx.sole_rotation[s][1, 0], ctx.sole_rotation[s][0, 0]))
@@ -117,6 +126,7 @@ class MujocoBackend:
             feet_yaw=feet_yaw,
             in_contact=dict(self._contact),
             mass=self.mass,
+            applied_contact_force=self._applied.copy(),
         )
 
     def step(self, command: WalkerCommand) -> MeasuredState:
