@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from dcmviz import GRAVITY
+from dcmviz.config import apply_overrides, load_preset
 from dcmviz.sim.mujoco_sim import MujocoBackend
 from dcmviz.state import FootTarget, MeasuredState, WalkerCommand
+from dcmviz.walker import Walker
 
 E_Z = np.array([0.0, 0.0, 1.0])
 
@@ -50,3 +54,66 @@ def test_stands_three_seconds(robot):
     for s in feet:
         assert np.linalg.norm(state.feet[s] - feet[s]) < 0.005
         assert state.in_contact[s]
+
+
+PRESETS = Path(__file__).resolve().parents[1] / "presets"
+
+
+def rollout(preset: str, duration: float | None = None, overrides: list[str] | None = None):
+    """Run a preset through Walker + MujocoBackend; pushes as the preset says (with ramp)."""
+    config = apply_overrides(load_preset(PRESETS / preset), overrides or [])
+    backend = MujocoBackend(config.robot.model)
+    state = backend.reset()
+    walker = Walker(config, mass=backend.mass, dt=backend.control_dt)
+    walker.reset(state)
+    duration = config.sim.duration if duration is None else duration
+    max_err = 0.0
+    while state.t < duration - 1e-9:
+        force = np.zeros(3)
+        for push in config.pushes:
+            if push.start <= state.t < push.start + push.duration:
+                ramp = min(1.0, (state.t - push.start) / push.ramp) if push.ramp > 0 else 1.0
+                force = force + ramp * np.asarray(push.force, float)
+        if config.pushes:
+            backend.set_external_force(config.pushes[0].body, force)
+        command = walker.step(state)
+        state = backend.step(command)
+        max_err = max(max_err, float(np.linalg.norm(command.xi - command.xi_adj)))
+        if backend.fell():
+            return True, walker, max_err
+    return False, walker, max_err
+
+
+@pytest.mark.slow
+def test_default_walk_completes():
+    fell, walker, max_err = rollout("walk_forward.toml")
+    assert not fell
+    assert walker.steps_completed == 10
+    assert max_err < 0.03
+    for record in walker.records[:-1]:  # the closing step is adjusted by the walker
+        assert np.linalg.norm(record.adjustment[:2]) < 0.02
+
+
+@pytest.mark.slow
+def test_lateral_push_is_survived():
+    fell, walker, _ = rollout("lateral_push.toml")
+    assert not fell
+    assert walker.steps_completed == 14
+
+
+@pytest.mark.slow
+def test_g1_walks():
+    fell, walker, max_err = rollout("g1_walk.toml")
+    assert not fell
+    assert walker.steps_completed == 6
+    assert max_err < 0.03
+
+
+def test_external_force_input_is_validated():
+    backend = MujocoBackend("talos")
+    with pytest.raises(ValueError, match="torso"):
+        backend.set_external_force("tail", np.zeros(3))
+    with pytest.raises(ValueError, match="finite"):
+        backend.set_external_force("torso", np.array([np.nan, 0.0, 0.0]))
+    backend.set_external_force("torso", np.array([0.0, 10.0, 0.0]))
+    backend.set_external_force("leg_left_3_link", np.array([0.0, 10.0, 0.0]))

@@ -1,0 +1,159 @@
+"""Whole-body QP: its answer checked against Pinocchio's dynamics and the contact constraints."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from dcmviz import GRAVITY
+from dcmviz.sim.robots import SIDES, load_robot
+from dcmviz.sim.wbc import Gains, WholeBodyController
+from dcmviz.state import FootTarget, WalkerCommand
+
+E_Z = np.array([0.0, 0.0, 1.0])
+
+
+def _state(robot, seed=0):
+    rng = np.random.default_rng(seed)
+    q = robot.q_nominal.copy()
+    q[7:] += rng.normal(scale=0.02, size=robot.nu)
+    v = rng.normal(scale=0.1, size=robot.nv)
+    return q, v
+
+
+def _command(robot, support, contact_force, feet):
+    zero = np.zeros(3)
+    swing = next((s for s in SIDES if not support[s]), None)
+    return WalkerCommand(
+        t=0.0,
+        support=support,
+        feet={s: FootTarget(position=np.asarray(p, float)) for s, p in feet.items()},
+        swing_side=swing,
+        com_force=contact_force - robot.mass * GRAVITY * E_Z,
+        contact_force=np.asarray(contact_force, float),
+        xi=zero,
+        xi_ref=zero,
+        xi_adj=zero,
+        v_ref=zero,
+        v_cmd=zero,
+        f_hat=zero,
+    )
+
+
+def _feet(robot, q):
+    model, data = robot.pin_model, robot.pin_model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    return {s: data.oMf[robot.sole_frames[s]].translation.copy() for s in SIDES}
+
+
+def _check_dynamics_and_constraints(robot, wbc, q, v, sol, active):
+    """M q̈ + h = Sᵀτ + Σ Jᵀ w (Pinocchio, computed here) and the contact/torque constraints."""
+    model, data = robot.pin_model, robot.pin_model.createData()
+    M = pin.crba(model, data, q)
+    h = pin.rnea(model, data, q, v, np.zeros(model.nv))
+    h[6:] += robot.damping * v[6:]
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    rhs = np.zeros(model.nv)
+    rhs[6:] = sol.tau
+    for s in SIDES:
+        J = pin.getFrameJacobian(model, data, robot.sole_frames[s], pin.LOCAL_WORLD_ALIGNED)
+        rhs += J.T @ sol.wrenches[s]
+    np.testing.assert_allclose(M @ sol.qdd + h, rhs, atol=1e-5 * robot.mass * GRAVITY)
+    g = wbc.gains
+    for s in SIDES:
+        w = sol.wrenches[s]
+        if not active[s]:
+            np.testing.assert_allclose(w, 0.0, atol=1e-9)
+            continue
+        R = data.oMf[robot.sole_frames[s]].rotation
+        f, tau = R.T @ w[:3], R.T @ w[3:]
+        tol = 1e-6 * robot.mass * GRAVITY
+        assert f[2] >= g.min_normal_force - tol
+        assert abs(f[0]) <= g.friction * f[2] + tol
+        assert abs(f[1]) <= g.friction * f[2] + tol
+        cop = np.array([-tau[1], tau[0]]) / f[2]
+        assert abs(cop[0]) <= robot.foot_length / 2 + 1e-6
+        assert abs(cop[1]) <= robot.foot_width / 2 + 1e-6
+    assert np.all(np.abs(sol.tau) <= robot.torque_limit + 1e-6)
+
+
+@pytest.mark.parametrize("name", ["talos", "g1"])
+def test_double_support_realises_the_contact_force(name):
+    robot = load_robot(name)
+    wbc = WholeBodyController(robot)
+    q, v = _state(robot)
+    ctx = wbc.kinematics.context(q, v)
+    force = robot.mass * GRAVITY * E_Z + np.array([15.0, -10.0, 20.0])
+    cmd = _command(robot, {"left": True, "right": True}, force, _feet(robot, q))
+    sol = wbc.solve(ctx, cmd, {"left": True, "right": True})
+    assert sol.ok
+    _check_dynamics_and_constraints(robot, wbc, q, v, sol, {"left": True, "right": True})
+    total = sol.wrenches["left"][:3] + sol.wrenches["right"][:3]
+    np.testing.assert_allclose(total, force, atol=0.02 * robot.mass * GRAVITY)
+
+
+@pytest.mark.parametrize("name", ["talos", "g1"])
+def test_single_support_holds_the_stance_foot_and_lifts_the_swing_foot(name):
+    robot = load_robot(name)
+    wbc = WholeBodyController(robot)
+    q, v = _state(robot, seed=1)
+    ctx = wbc.kinematics.context(q, v)
+    feet = _feet(robot, q)
+    feet["left"] = feet["left"] + np.array([0.05, 0.0, 0.05])  # swing target ahead and up
+    com = ctx.com
+    # VRP over the right sole: contact force along (x - v) keeps the CoP inside that foot
+    vrp = feet["right"] + np.array([0.0, 0.0, robot.com_height])
+    b2 = robot.com_height / GRAVITY
+    force = robot.mass / b2 * (com - vrp) + robot.mass * GRAVITY * E_Z
+    cmd = _command(robot, {"left": False, "right": True}, force, feet)
+    sol = wbc.solve(ctx, cmd, {"left": True, "right": True})  # left still touches: no wrench
+    assert sol.ok
+    active = {"left": False, "right": True}
+    _check_dynamics_and_constraints(robot, wbc, q, v, sol, active)
+    model, data = robot.pin_model, robot.pin_model.createData()
+    pin.forwardKinematics(model, data, q, v, sol.qdd)
+    pin.updateFramePlacements(model, data)
+    acc_r = pin.getFrameClassicalAcceleration(
+        model, data, robot.sole_frames["right"], pin.LOCAL_WORLD_ALIGNED
+    ).vector
+    vel_r = pin.getFrameVelocity(model, data, robot.sole_frames["right"], pin.LOCAL_WORLD_ALIGNED)
+    np.testing.assert_allclose(acc_r, -wbc.gains.kd_stance * vel_r.vector, atol=1e-6)
+    acc_l = pin.getFrameClassicalAcceleration(
+        model, data, robot.sole_frames["left"], pin.LOCAL_WORLD_ALIGNED
+    ).linear
+    assert acc_l[2] > 0.0 and acc_l[0] > 0.0  # the swing foot accelerates towards its target
+
+
+def test_infeasible_demand_keeps_constraints():
+    """A force the feet cannot realise (CoP far outside, pulling down) is clipped, not obeyed."""
+    robot = load_robot("talos")
+    wbc = WholeBodyController(robot, Gains())
+    q, v = _state(robot, seed=2)
+    ctx = wbc.kinematics.context(q, v)
+    force = np.array([2000.0, 0.0, -300.0])
+    cmd = _command(robot, {"left": True, "right": True}, force, _feet(robot, q))
+    sol = wbc.solve(ctx, cmd, {"left": True, "right": True})
+    if sol.ok:
+        _check_dynamics_and_constraints(robot, wbc, q, v, sol, {"left": True, "right": True})
+
+
+def test_failed_qp_holds_the_last_torques():
+    robot = load_robot("talos")
+    wbc = WholeBodyController(robot)
+    q, v = _state(robot)
+    ctx = wbc.kinematics.context(q, v)
+    feet = _feet(robot, q)
+    good = wbc.solve(
+        ctx,
+        _command(robot, {"left": True, "right": True}, robot.mass * GRAVITY * E_Z, feet),
+        {"left": True, "right": True},
+    )
+    bad = wbc.solve(
+        ctx,
+        _command(robot, {"left": True, "right": True}, np.array([np.nan, 0.0, 0.0]), feet),
+        {"left": True, "right": True},
+    )
+    assert good.ok and not bad.ok
+    np.testing.assert_array_equal(bad.tau, good.tau)
