@@ -264,6 +264,21 @@ class GaitPlan:
             s[i] = w
         return s
 
+    def stance_for(self, k: int) -> Footstep:
+        """The foot that stands while footstep k swings."""
+        side = OTHER[self.steps[k].side]
+        for j in range(k - 1, -1, -1):
+            if self.steps[j].side == side:
+                return self.steps[j]
+        return self.start_feet[side]
+
+    def feet_at_step(self, k: int) -> dict[str, Footstep]:
+        """Where both feet are planned to be just before footstep k lifts off."""
+        feet = dict(self.start_feet)
+        for s in self.steps[:k]:
+            feet[s.side] = s
+        return feet
+
     def first_affected_phase(self, k: int) -> int:
         """φ_fa: the first phase whose VRP interpolation moves with footstep k (= i_fa,wp − 1)."""
         return min(self.step_waypoint_weights[k]) - 1

@@ -43,6 +43,10 @@ class MeasuredState:
     feet_yaw: dict[str, float]  # side -> rad
     in_contact: dict[str, bool]  # side -> measured contact
     mass: float  # kg
+    # the contact force (N, sum over feet) the backend actually commanded after its own limits
+    # (support polygon, friction, torque limits): the "known force" of the observer, eq. (42).
+    # None: the walker uses the force it asked for.
+    applied_contact_force: np.ndarray | None = None
 
     @property
     def momentum(self) -> np.ndarray:
@@ -73,6 +77,7 @@ class WalkerCommand:
     v_ref: np.ndarray  # nominal VRP reference (eq. 47)
     v_cmd: np.ndarray  # commanded VRP, eq. (24) or (40)/(41)
     f_hat: np.ndarray  # estimated perturbation force, eq. (45)
+    v_cmd_rate: np.ndarray | None = None  # (3,) m/s, feed-forward rate of v_cmd (= v̇_ref)
     com_ref: np.ndarray | None = None  # reference CoM for posture/height regulation (optional)
     phase: int = 0  # current transition phase index (0-based)
     step_index: int = 0  # index of the step being taken (0 = first step), -1 while standing

@@ -1,6 +1,14 @@
 """The paper's equations (Englsberger, Mesesan, Ott): pure numpy, no I/O, no robot."""
 
+from dcmviz.dcm.adjustment import (
+    adaptation_factor,
+    adjusted_waypoints,
+    adjustment_gain,
+    dcm_adjustment,
+    step_adjustment,
+)
 from dcmviz.dcm.continuity import continuity_matrix, continuity_waypoints
+from dcmviz.dcm.control import com_force, dcm, vrp_adjusted, vrp_from_force, vrp_tracking
 from dcmviz.dcm.interpolation import (
     ORDERS,
     alpha,
@@ -12,9 +20,22 @@ from dcmviz.dcm.interpolation import (
     gamma_0,
     sigma,
 )
+from dcmviz.dcm.observer import DisturbanceObserver, reference_shift
 from dcmviz.dcm.preview import PhaseSchedule, Preview
 
 __all__ = [
+    "DisturbanceObserver",
+    "adaptation_factor",
+    "adjusted_waypoints",
+    "adjustment_gain",
+    "com_force",
+    "dcm",
+    "dcm_adjustment",
+    "reference_shift",
+    "step_adjustment",
+    "vrp_adjusted",
+    "vrp_from_force",
+    "vrp_tracking",
     "ORDERS",
     "PhaseSchedule",
     "Preview",

@@ -1,0 +1,51 @@
+"""Momentum-based disturbance observer and reference shift (Sec. III-C, eqs. 42–49)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+class DisturbanceObserver:
+    """Discrete observer of the external force (eqs. 45, 46); continuous form eqs. (42)–(44).
+
+    F̂_k = k_F (m ẋ_k − p̂_k)                (45)
+    p̂_{k+1} = p̂_k + (F_known,k + F̂_k) Δt   (46)
+
+    so F̂ follows the true perturbation with first-order dynamics of rate k_F (eq. 44).
+    ``F_known`` is every force on the CoM that the controller knows: the commanded contact force
+    plus gravity.
+    """
+
+    def __init__(self, mass: float, k_f: float) -> None:
+        if not mass > 0.0:
+            raise ValueError(f"mass = {mass}: must be > 0 kg")
+        if not k_f > 0.0:
+            raise ValueError(f"k_f = {k_f}: must be > 0 1/s")
+        self.mass = float(mass)
+        self.k_f = float(k_f)
+        self.p_hat = np.zeros(3)
+        self.f_hat = np.zeros(3)
+
+    def reset(self, com_velocity: NDArray) -> None:
+        """p̂_0 = m ẋ(0) (eq. 42 at initialisation), F̂ = 0."""
+        self.p_hat = self.mass * np.asarray(com_velocity, dtype=float)
+        self.f_hat = np.zeros(3)
+        self._started = False
+
+    def update(self, com_velocity: NDArray, f_known: NDArray, dt: float) -> NDArray:
+        """One sample k: p̂_k from eq. (46), then F̂_k from eq. (45); returns F̂_k (N).
+
+        ``f_known`` is the known force over the last sample (k−1 → k), so eq. (46) is applied
+        when that force is known (the realised force, not only the one asked for).
+        """
+        if self._started:
+            self.p_hat = self.p_hat + (np.asarray(f_known, float) + self.f_hat) * dt
+        self._started = True
+        self.f_hat = self.k_f * (self.mass * np.asarray(com_velocity, float) - self.p_hat)
+        return self.f_hat
+
+
+def reference_shift(f_hat: NDArray, mass: float, b: float) -> NDArray:
+    """Offset −b²/m F̂ added to v_ref, ξ_ref and ξ_adj (eqs. 47–49)."""
+    return -(b * b / mass) * np.asarray(f_hat, dtype=float)

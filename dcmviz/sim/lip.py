@@ -1,0 +1,194 @@
+"""Reduced model: a point mass with the robot's mass on massless legs (the LIP of eqs. 1–4).
+
+The feet can only push with a force along the line from the contact point (eCMP) to the CoM, so
+the realised VRP of the contact force, v_c = x − b²/m (F_c − m g e_z), has its horizontal part
+inside the support polygon (the sole rectangles of the feet in contact, or their convex hull in
+double support).  The walker's desired contact force is realised after projecting v_c onto that
+polygon; external forces act on the CoM.  Over one control period v_c is held and the linear
+dynamics ẍ = (x − v_c)/b² + F_ext/m are integrated exactly (cosh/sinh).
+
+The robot is counted as fallen when its DCM is farther from the support polygon than one maximal
+step can reach (no single step can capture it) or the CoM drops below half its height.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dcmviz import GRAVITY
+from dcmviz.sim.specs import RobotSpec, get_spec
+from dcmviz.state import SIDES, MeasuredState, WalkerCommand
+
+E_Z = np.array([0.0, 0.0, 1.0])
+
+
+def sole_corners(position: np.ndarray, yaw: float, length: float, width: float) -> np.ndarray:
+    """(4, 2) corners of a sole rectangle, counter-clockwise."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    hl, hw = 0.5 * length, 0.5 * width
+    local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
+    rot = np.array([[c, -s], [s, c]])
+    return position[:2] + local @ rot.T
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """Counter-clockwise convex hull (Andrew's monotone chain) of (N, 2) points."""
+    pts = sorted(map(tuple, np.round(points, 12)))
+    if len(pts) <= 2:
+        return np.array(pts)
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower, upper = [], []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    for p in reversed(pts):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def project_to_polygon(point: np.ndarray, polygon: np.ndarray) -> tuple[np.ndarray, float]:
+    """Closest point of a convex CCW polygon to ``point`` (2,), and the distance (0 inside)."""
+    a = polygon
+    edge = np.empty_like(a)
+    edge[:-1] = a[1:] - a[:-1]
+    edge[-1] = a[0] - a[-1]
+    rel = point - a
+    cross = edge[:, 0] * rel[:, 1] - edge[:, 1] * rel[:, 0]
+    if np.all(cross >= 0.0):
+        return point.copy(), 0.0
+    s = np.clip(np.einsum("ij,ij->i", rel, edge) / np.einsum("ij,ij->i", edge, edge), 0.0, 1.0)
+    closest = a + s[:, None] * edge
+    d = np.linalg.norm(closest - point, axis=1)
+    i = int(np.argmin(d))
+    return closest[i], float(d[i])
+
+
+class LipBackend:
+    """Point-mass backend with the same interface as the MuJoCo humanoid."""
+
+    name = "lip"
+
+    def __init__(
+        self, robot: str = "talos", *, b: float | None = None, control_dt: float = 0.005
+    ) -> None:
+        self.spec: RobotSpec = get_spec(robot)
+        self.mass = self.spec.mass_kg
+        self.b = float(b) if b is not None else self.spec.b_nominal_s
+        self.control_dt = float(control_dt)
+        self.external: dict[str, np.ndarray] = {}
+        self.reset()
+
+    # -- interface ------------------------------------------------------------------------------
+    def reset(self) -> MeasuredState:
+        half = 0.5 * self.spec.foot_spacing_m
+        self.feet = {"left": np.array([0.0, half, 0.0]), "right": np.array([0.0, -half, 0.0])}
+        self.feet_yaw = {"left": 0.0, "right": 0.0}
+        self.in_contact = {"left": True, "right": True}
+        self.t = 0.0
+        self.com = np.array([0.0, 0.0, GRAVITY * self.b * self.b])
+        self.com_velocity = np.zeros(3)
+        self.applied = self.mass * GRAVITY * E_Z
+        self.support_distance = 0.0  # how far the asked VRP lay outside the support polygon
+        self.external = {}
+        self._fell = False
+        self._polygon_key = None
+        return self.measure()
+
+    def measure(self) -> MeasuredState:
+        return MeasuredState(
+            t=self.t,
+            com=self.com.copy(),
+            com_velocity=self.com_velocity.copy(),
+            feet={s: p.copy() for s, p in self.feet.items()},
+            feet_yaw=dict(self.feet_yaw),
+            in_contact=dict(self.in_contact),
+            mass=self.mass,
+            applied_contact_force=self.applied.copy(),
+        )
+
+    def set_external_force(self, body: str, force: np.ndarray) -> None:
+        """A persistent world-frame force (N); on the point mass every body is the CoM."""
+        force = np.asarray(force, dtype=float)
+        if force.shape != (3,) or not np.all(np.isfinite(force)):
+            raise ValueError(f"force = {force!r}: must be 3 finite numbers (N)")
+        if body not in self.spec.bodies and body not in self.spec.bodies.values():
+            raise ValueError(f"body = {body!r}: unknown; allowed: {', '.join(self.spec.bodies)}")
+        self.external[body] = force
+
+    def external_force(self) -> np.ndarray:
+        return sum(self.external.values(), np.zeros(3))
+
+    def fell(self) -> bool:
+        return self._fell
+
+    def support_polygon(self) -> np.ndarray:
+        key = tuple(
+            (s, *self.feet[s][:2].round(9), round(self.feet_yaw[s], 9))
+            for s in SIDES
+            if self.in_contact[s]
+        )
+        if key != self._polygon_key:
+            self._polygon_key, self._polygon = key, self._compute_polygon()
+        return self._polygon
+
+    def _compute_polygon(self) -> np.ndarray:
+        corners = [
+            sole_corners(
+                self.feet[s], self.feet_yaw[s], self.spec.foot_length_m, self.spec.foot_width_m
+            )
+            for s in SIDES
+            if self.in_contact[s]
+        ]
+        return convex_hull(np.vstack(corners))
+
+    def step(self, command: WalkerCommand) -> MeasuredState:
+        # feet follow the walker's targets exactly; a foot in support lands where it is told
+        for side in SIDES:
+            target = command.feet[side]
+            self.feet[side] = np.array(target.position, dtype=float)
+            self.feet_yaw[side] = float(target.yaw)
+            self.in_contact[side] = bool(command.support[side])
+        m, b = self.mass, self.b
+        # the contact VRP of the desired contact force, projected onto the support polygon
+        f_c = np.asarray(command.contact_force, dtype=float)
+        v_c = self.com - (b * b / m) * (f_c - m * GRAVITY * E_Z)
+        polygon = self.support_polygon()
+        xy, self.support_distance = project_to_polygon(v_c[:2], polygon)
+        v_c = np.array([xy[0], xy[1], v_c[2]])
+        if v_c[2] > self.com[2] + b * b * GRAVITY:  # feet cannot pull: no contact force
+            v_c = self.com + b * b * GRAVITY * E_Z
+        # exact solution of ẍ = (x − c(τ))/b² for c(τ) = c0 + ċ τ over the tick (first-order hold
+        # of the commanded VRP at the reference's rate, so an undisturbed walk is exactly nominal)
+        rate = command.v_cmd_rate if command.v_cmd_rate is not None else np.zeros(3)
+        rate = (
+            np.array([rate[0], rate[1], rate[2]]) if self.support_distance == 0.0 else np.zeros(3)
+        )
+        c0 = v_c - (b * b / m) * self.external_force()
+        dt = self.control_dt
+        ch, sh = math.cosh(dt / b), math.sinh(dt / b)
+        y, dy = self.com - c0, self.com_velocity - rate
+        velocity0 = self.com_velocity
+        self.com = c0 + rate * dt + y * ch + b * dy * sh
+        self.com_velocity = rate + y * sh / b + dy * ch
+        # the contact force actually applied, averaged over the tick (momentum change)
+        self.applied = (
+            m * (self.com_velocity - velocity0) / dt + m * GRAVITY * E_Z - self.external_force()
+        )
+        self.t += dt
+        self._check_fall(polygon)
+        return self.measure()
+
+    def _check_fall(self, polygon: np.ndarray) -> None:
+        xi = self.com + self.b * self.com_velocity
+        _, d = project_to_polygon(xi[:2], polygon)
+        ground = max(self.feet[s][2] for s in SIDES)
+        if d > self.spec.max_step_width_m or self.com[2] - ground < 0.5 * self.spec.com_height_m:
+            self._fell = True

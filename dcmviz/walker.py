@@ -1,0 +1,248 @@
+"""The per-tick loop of §III, the same for every backend.
+
+Each tick the walker reads a :class:`~dcmviz.state.MeasuredState` and answers a
+:class:`~dcmviz.state.WalkerCommand`:
+
+1. clock through the plan; at a touchdown commit the footstep where the foot really landed
+   (``GaitPlan.with_step``: only that footstep's waypoints move, so no reference jumps, eqs. 27, 34);
+   in continuous mode replan the next steps from there (receding horizon);
+2. measured DCM ξ = x + b ẋ (eq. 1);
+3. disturbance observer F̂ (eqs. 45, 46) and the reference shift −b²/m F̂ (eqs. 47–49);
+4. step adjustment of the next modifiable footstep Δv_adj = A_adj ξ̃ (eq. 32), horizontal, limited
+   to the reach, and the adapted DCM reference ξ_adj = ξ_ref + Δξ_adj (eqs. 33–35);
+5. desired VRP v = v_ref + (1 + k_ξ b)(ξ − ξ_adj) (eq. 41; eq. 24 without adjustment) and the CoM
+   force F = m/b² (x − v) (eq. 4); the feet must push with F + m g e_z − F̂;
+6. foot targets: stance feet where they stand, the swing foot on a C² path re-targeted to the
+   adjusted footstep.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dcmviz import GRAVITY
+from dcmviz.config import Config
+from dcmviz.dcm import (
+    DisturbanceObserver,
+    com_force,
+    dcm_adjustment,
+    reference_shift,
+    step_adjustment,
+    vrp_tracking,
+)
+from dcmviz.gait import (
+    OTHER,
+    Footstep,
+    GaitPlan,
+    SwingTrajectory,
+    build_plan,
+    clamp_to_reach,
+    horizon_steps,
+    plan_footsteps,
+    timing_of,
+)
+from dcmviz.sim.specs import get_spec
+from dcmviz.state import SIDES, FootTarget, MeasuredState, WalkerCommand
+
+HORIZON_STEPS = 4  # continuous mode: footsteps previewed ahead (terminal constraint beyond them)
+E_Z = np.array([0.0, 0.0, 1.0])
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """A committed footstep: where it landed relative to the nominal plan."""
+
+    t: float  # s, touchdown
+    step: int  # footstep counter since the start
+    side: str
+    position: np.ndarray  # (3,) where it landed
+    nominal: np.ndarray  # (3,) where the nominal plan had it
+
+    @property
+    def adjustment(self) -> np.ndarray:
+        return self.position - self.nominal
+
+
+class Walker:
+    """Backend-independent DCM walking controller (§III) for one preset."""
+
+    def __init__(self, config: Config, *, mass: float, dt: float) -> None:
+        self.config = config
+        self.spec = get_spec(config.robot.model)
+        self.mass = float(mass)
+        self.dt = float(dt)
+        self.b = config.dcm.b
+        self.observer = DisturbanceObserver(self.mass, config.control.k_f)
+        self.plan: GaitPlan | None = None
+
+    # -- lifecycle ------------------------------------------------------------------------------
+    def reset(self, state: MeasuredState) -> GaitPlan:
+        """Start standing where the backend's feet are; returns the nominal plan."""
+        gait = self.config.gait
+        start = {
+            s: Footstep(s, np.array(state.feet[s], float), float(state.feet_yaw[s])) for s in SIDES
+        }
+        if gait.mode == "plan":
+            _, steps = plan_footsteps(gait)
+        else:
+            steps = horizon_steps(gait, start, gait.first_swing, HORIZON_STEPS)
+        self.plan = build_plan(
+            start, steps, timing_of(gait), self.b, self.config.dcm.order, t0=state.t
+        )
+        self.nominal_plan = self.plan
+        self.placed: dict[str, Footstep] = dict(start)  # where each foot stands (committed)
+        self._nominal_feet: dict[str, Footstep] = dict(start)  # continuous mode: nominal cursor
+        self.swing: SwingTrajectory | None = None
+        self.swing_step: int | None = None
+        self.adjusted_target: tuple[int, np.ndarray] | None = None  # (step, position) pending
+        self.records: list[StepRecord] = []
+        self.steps_completed = 0
+        self._last_contact_force = self.mass * GRAVITY * E_Z
+        self.observer.reset(state.com_velocity)
+        return self.plan
+
+    # -- one tick -------------------------------------------------------------------------------
+    def step(self, state: MeasuredState) -> WalkerCommand:
+        if self.plan is None:
+            self.reset(state)
+        t = state.t
+        cfg = self.config.control
+        m, b = self.mass, self.b
+
+        contact = self.plan.contact(t)
+        if self.swing_step is not None and not (
+            contact.kind == "ss" and contact.step == self.swing_step
+        ):
+            self._touchdown(state)
+            contact = self.plan.contact(t)
+        if contact.kind == "ss" and self.swing_step != contact.step:
+            self._liftoff(state, contact.step)
+
+        # observer, eqs. (45), (46); the known force is the contact force plus gravity
+        known = state.applied_contact_force
+        if known is None:
+            known = self._last_contact_force
+        if cfg.observer:
+            f_hat = self.observer.update(state.com_velocity, known - m * GRAVITY * E_Z, self.dt)
+        else:
+            f_hat = np.zeros(3)
+        shift = reference_shift(f_hat, m, b) if cfg.observer else np.zeros(3)
+
+        preview = self.plan.preview
+        local = t - self.plan.t0
+        xi_ref = preview.dcm(local) + shift  # eq. (48)
+        v_ref = preview.vrp(local) + shift  # eq. (47)
+        xi = state.dcm(b)
+
+        xi_adj = xi_ref
+        self.adjusted_target = None
+        k = self.plan.next_modifiable_step(t) if cfg.step_adjustment else None
+        if k is not None:
+            selection = self.plan.selection(k)
+            phi_fa = self.plan.first_affected_phase(k)
+            dv = step_adjustment(preview, phi_fa, selection, xi - xi_ref)  # eq. (32)
+            nominal = self.plan.steps[k]
+            target = clamp_to_reach(
+                self.spec,
+                self.plan.stance_for(k),
+                nominal.moved(nominal.position + dv),
+                nominal.position,
+                cfg.max_step_adjustment,
+            )
+            dv = target - nominal.position
+            xi_adj = xi_ref + dcm_adjustment(preview, local, selection, dv)  # eqs. (33)–(35), (49)
+            self.adjusted_target = (k, target)
+            if self.swing_step == k:
+                self.swing = self.swing.retarget(t, target)
+
+        v_cmd = vrp_tracking(v_ref, xi, xi_adj, cfg.k_xi, b)  # eq. (41) (eq. 24 if ξ_adj = ξ_ref)
+        force = com_force(state.com, v_cmd, m, b)  # eq. (4)
+        contact_force = force + m * GRAVITY * E_Z - f_hat
+        self._last_contact_force = contact_force
+
+        feet = {}
+        for side in SIDES:
+            if side == contact.swing_side and self.swing is not None:
+                p, v, a, yaw, yaw_rate = self.swing.sample(t)
+                feet[side] = FootTarget(p, v, a, yaw, yaw_rate)
+            else:
+                placed = self.placed[side]
+                feet[side] = FootTarget(placed.position, yaw=placed.yaw)
+
+        return WalkerCommand(
+            t=t,
+            support=contact.support,
+            feet=feet,
+            swing_side=contact.swing_side,
+            com_force=force,
+            contact_force=contact_force,
+            xi=xi,
+            xi_ref=xi_ref,
+            xi_adj=xi_adj,
+            v_ref=v_ref,
+            v_cmd=v_cmd,
+            f_hat=f_hat,
+            v_cmd_rate=preview.vrp_velocity(local),
+            phase=contact.phase,
+            step_index=self.steps_completed,
+            done=self.done(t),
+        )
+
+    def done(self, t: float) -> bool:
+        return self.config.gait.mode == "plan" and t >= self.plan.t_end
+
+    # -- events ---------------------------------------------------------------------------------
+    def _liftoff(self, state: MeasuredState, k: int) -> None:
+        step = self.plan.steps[k]
+        lift = Footstep(
+            step.side, np.array(state.feet[step.side], float), float(state.feet_yaw[step.side])
+        )
+        t_lift, t_touch = self.plan.swing_window(k)
+        self.swing = SwingTrajectory.between(t_lift, t_touch, lift, step)
+        self.swing_step = k
+
+    def _touchdown(self, state: MeasuredState) -> None:
+        """Commit the footstep where the foot landed (horizontal), then replan if continuous."""
+        k = self.swing_step
+        plan = self.plan
+        step = plan.steps[k]
+        nominal = self.nominal_step_position(k)
+        landed = np.array([state.feet[step.side][0], state.feet[step.side][1], step.position[2]])
+        self.plan = plan.with_step(k, landed)
+        t_touch = plan.swing_window(k)[1]
+        self.placed[step.side] = self.plan.steps[k]
+        self.records.append(StepRecord(t_touch, self.steps_completed, step.side, landed, nominal))
+        self.steps_completed += 1
+        self.swing = None
+        self.swing_step = None
+        if self.config.gait.mode == "continuous":
+            self._nominal_feet[step.side] = Footstep(step.side, nominal, step.yaw)
+            steps = horizon_steps(
+                self.config.gait, self._nominal_feet, OTHER[step.side], HORIZON_STEPS
+            )
+            self.plan = build_plan(
+                dict(self.placed),
+                steps,
+                timing_of(self.config.gait),
+                self.b,
+                self.config.dcm.order,
+                start="transfer",
+                landed=step.side,
+                t0=t_touch,
+            )
+
+    def nominal_step_position(self, k: int) -> np.ndarray:
+        """Where footstep k of the current plan was before any adjustment."""
+        if self.config.gait.mode == "plan":
+            return np.array(self.nominal_plan.steps[k].position, float)
+        return np.array(self.plan.steps[k].position, float)  # generated from the nominal cursor
+
+    @property
+    def step_adjustments(self) -> list[dict[str, float]]:
+        """Committed footsteps that landed away from the nominal plan: {t, dx, dy} (m)."""
+        return [
+            {"t": r.t, "step": r.step, "dx": float(r.adjustment[0]), "dy": float(r.adjustment[1])}
+            for r in self.records
+        ]
