@@ -1,0 +1,309 @@
+"""Headless runner: ``python -m dcmviz.run PRESET [--sim lip|mujoco] [--duration S] [--json PATH]
+[--rrd PATH] [--set section.key=value ...]`` (DESIGN.md, "Headless runner").
+
+Runs a preset without a browser, prints a short summary and optionally writes a JSON result and a
+rerun recording.  Exit status 0 for a completed run (a fall is a result, not an error), 2 for bad
+input with a one-line reason on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dcmviz.config import Config, ConfigError, Push, apply_overrides, load_preset
+from dcmviz.session import Session
+
+PROG = "dcmviz.run"
+RECOVERY_THRESHOLDS_M = (0.01, 0.02)  # DCM error levels reported per push (1 cm, 2 cm)
+ADJUSTMENT_REPORTED_M = 1e-3  # footsteps that landed ≥ 1 mm from the plan count as adjusted
+
+
+class BadInput(Exception):
+    """Bad command-line input; the message is the one line printed on stderr."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports errors as one line and raises instead of exiting."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise BadInput(message)
+
+
+def positive_seconds(text: str) -> float:
+    """argparse type: a finite number of seconds > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number (seconds, > 0)") from None
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number of seconds > 0")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog=PROG, description="Run a dcmviz preset headless and summarise the walk.")
+    p.add_argument("preset", help="preset TOML file (see presets/)")
+    p.add_argument("--sim", choices=("lip", "mujoco"), help="backend (default: the preset's)")
+    p.add_argument(
+        "--duration", type=positive_seconds, help="simulated seconds (default: sim.duration)"
+    )
+    p.add_argument("--json", metavar="PATH", help="write the result as JSON")
+    p.add_argument("--rrd", metavar="PATH", help="write a rerun recording (.rrd)")
+    p.add_argument(
+        "--set",
+        metavar="section.key=value",
+        action="append",
+        default=[],
+        dest="overrides",
+        help="override a preset value (TOML literal), e.g. --set control.observer=false",
+    )
+    return p
+
+
+# ---------------------------------------------------------------------------------------------
+# per-tick log and push-recovery analysis
+
+
+@dataclass
+class TickLog:
+    """Time and DCM error of every tick (the session's history is a bounded ring buffer)."""
+
+    t: list[float] = field(default_factory=list)
+    error: list[float] = field(default_factory=list)
+
+    def __call__(self, session: Session) -> None:
+        cmd = session.last_command
+        self.t.append(float(cmd.t))
+        self.error.append(float(np.linalg.norm(cmd.xi - cmd.xi_ref)))
+
+
+def chain(*callbacks: Callable[[Session], None] | None) -> Callable[[Session], None]:
+    """One ``on_tick`` callback calling several in order (None entries skipped)."""
+    active = [c for c in callbacks if c is not None]
+
+    def on_tick(session: Session) -> None:
+        for c in active:
+            c(session)
+
+    return on_tick
+
+
+def push_recovery(
+    pushes: Sequence[Push],
+    t: np.ndarray,
+    error: np.ndarray,
+    touchdowns: Sequence[float],
+    fall_time_s: float | None,
+) -> list[dict[str, Any]]:
+    """Per push: peak DCM error, and how long / how many steps until it is back under 1 and 2 cm.
+
+    A push's window runs from its start to the next push's start (or the end of the run).  The
+    error is "back under" a threshold at the first instant after the push ends from which it stays
+    below the threshold to the end of the window; ``None`` if it never does (or the robot fell).
+    Steps are touchdowns after the push ends, up to that instant.
+    """
+    order = sorted(range(len(pushes)), key=lambda i: pushes[i].start)
+    t_run_end = float(t[-1]) if len(t) else 0.0
+    touch = np.asarray(sorted(touchdowns), dtype=float)
+    results: list[dict[str, Any]] = [{} for _ in pushes]
+    for rank, i in enumerate(order):
+        push = pushes[i]
+        t0, t1 = push.start, push.start + push.duration
+        w_end = pushes[order[rank + 1]].start if rank + 1 < len(order) else t_run_end + 1.0
+        in_push = (t >= t0) & (t < t1)
+        in_window = (t >= t0) & (t < w_end)
+        res: dict[str, Any] = {
+            "start_s": t0,
+            "duration_s": push.duration,
+            "force_n": list(push.force),
+            "ramp_s": push.ramp,
+            "impulse_ns": float(np.linalg.norm(push.force)) * (push.duration - 0.5 * push.ramp),
+            "reached": bool(len(t) and t[-1] >= t0),
+            "max_dcm_error_during_push_m": float(error[in_push].max()) if in_push.any() else None,
+            "max_dcm_error_m": float(error[in_window].max()) if in_window.any() else None,
+        }
+        fell_in_window = fall_time_s is not None and fall_time_s < w_end
+        after = (t >= t1) & (t < w_end)
+        for thr in RECOVERY_THRESHOLDS_M:
+            key = f"{round(thr * 100)}cm"
+            t_rec: float | None = None
+            if after.any() and not fell_in_window:
+                ta, ea = t[after], error[after]
+                above = np.nonzero(ea >= thr)[0]
+                if len(above) == 0:
+                    t_rec = t1
+                elif above[-1] + 1 < len(ta):
+                    t_rec = float(ta[above[-1] + 1])
+            res[f"recovery_time_{key}_s"] = None if t_rec is None else t_rec - t1
+            res[f"recovery_steps_{key}"] = (
+                None if t_rec is None else int(np.count_nonzero((touch > t1) & (touch <= t_rec)))
+            )
+        results[i] = res
+    return results
+
+
+# ---------------------------------------------------------------------------------------------
+# running
+
+
+def load_config(preset: str, overrides: Sequence[str]) -> Config:
+    """Preset + ``--set`` overrides, or ConfigError with one line."""
+    config = load_preset(preset)
+    return apply_overrides(config, list(overrides)) if overrides else config
+
+
+def run_session(
+    session: Session,
+    *,
+    duration: float | None = None,
+    rrd: str | Path | None = None,
+    preset_path: str | None = None,
+) -> dict[str, Any]:
+    """Run a session's walk from its start and return the result dict (the ``--json`` content).
+
+    A fall ends the run early and is reported, never raised.
+    """
+    config = session.config
+    log = TickLog()
+    session.on_tick = chain(session.on_tick, log)
+    recorder = None
+    if rrd is not None:
+        from dcmviz.record import Recorder
+
+        recorder = Recorder()
+        recorder.start(session, rrd)
+    duration = config.sim.duration if duration is None else duration
+    try:
+        metrics = session.run(duration, stop_on_fall=True)
+    finally:
+        if recorder is not None:
+            recorder.stop()
+    sim_time = float(session.t)
+    wall = float(metrics.wall_time_s)
+    t, err = np.asarray(log.t), np.asarray(log.error)
+    records = session.walker.records
+    adjustments = [
+        {"t": float(a["t"]), "step": int(a["step"]), "dx": a["dx"], "dy": a["dy"]}
+        for a in session.step_adjustments
+        if math.hypot(a["dx"], a["dy"]) >= ADJUSTMENT_REPORTED_M
+    ]
+    result: dict[str, Any] = {
+        "preset": config.name,
+        "preset_path": preset_path,
+        "backend": session.backend.name,
+        "robot": config.robot.model,
+        "mass_kg": float(session.backend.mass),
+        "requested_duration_s": duration,
+        "fell": bool(metrics.fell),
+        "fall_time_s": metrics.fall_time_s,
+        "sim_time_s": sim_time,
+        "wall_time_s": wall,
+        "real_time_factor": sim_time / wall if wall > 0 else None,
+        "ticks": metrics.ticks,
+        "steps_planned": len(session.nominal_plan().steps) if config.gait.mode == "plan" else None,
+        "steps_completed": int(session.steps_completed),
+        "max_dcm_error_m": float(metrics.max_dcm_error_m),
+        "final_dcm_error_m": float(metrics.final_dcm_error_m),
+        "step_adjustments": adjustments,
+        "max_step_adjustment_m": max(
+            (math.hypot(a["dx"], a["dy"]) for a in adjustments), default=0.0
+        ),
+        "footsteps": [
+            {
+                "t": float(r.t),
+                "step": int(r.step),
+                "side": r.side,
+                "position": [float(v) for v in r.position],
+                "nominal": [float(v) for v in r.nominal],
+            }
+            for r in records
+        ],
+        "pushes": push_recovery(config.pushes, t, err, [r.t for r in records], metrics.fall_time_s),
+        "control": config.control.model_dump(),
+        "dcm": config.dcm.model_dump(),
+        "rrd": str(rrd) if rrd is not None else None,
+    }
+    return result
+
+
+def summary(result: dict[str, Any]) -> str:
+    """A few human-readable lines."""
+    outcome = (
+        f"FELL at t = {result['fall_time_s']:.2f} s" if result["fell"] else "walked without falling"
+    )
+    rtf = result["real_time_factor"]
+    lines = [
+        f"{result['preset']} [{result['robot']}, {result['backend']}]: {outcome}",
+        f"  sim {result['sim_time_s']:.2f} s in {result['wall_time_s']:.2f} s wall"
+        + (f" ({rtf:.1f}x real time)" if rtf else ""),
+        f"  steps {result['steps_completed']}"
+        + (f"/{result['steps_planned']}" if result["steps_planned"] is not None else "")
+        + f", adjusted {len(result['step_adjustments'])}"
+        f" (max {result['max_step_adjustment_m'] * 100:.1f} cm)",
+        f"  DCM error max {result['max_dcm_error_m'] * 100:.2f} cm,"
+        f" final {result['final_dcm_error_m'] * 100:.2f} cm",
+    ]
+    for i, p in enumerate(result["pushes"]):
+        peak = p["max_dcm_error_m"]
+        rec = p["recovery_time_1cm_s"]
+        lines.append(
+            f"  push {i} at {p['start_s']:.2f} s, |F| {np.linalg.norm(p['force_n']):.0f} N"
+            f" for {p['duration_s']:.2f} s: "
+            + ("not reached" if not p["reached"] else f"peak error {peak * 100:.1f} cm, ")
+            + (
+                ""
+                if not p["reached"]
+                else (
+                    "not back under 1 cm"
+                    if rec is None
+                    else f"< 1 cm {rec:.2f} s after it ({p['recovery_steps_1cm']} steps)"
+                )
+            )
+        )
+    return "\n".join(lines)
+
+
+def _check_output(path: str | None, flag: str) -> None:
+    if path is None:
+        return
+    parent = Path(path).resolve().parent
+    if not parent.is_dir():
+        raise BadInput(f"{flag} {path!r}: directory {str(parent)!r} does not exist")
+    if Path(path).is_dir():
+        raise BadInput(f"{flag} {path!r}: is a directory, expected a file path")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """CLI entry point; returns the exit status (0 done, 2 bad input)."""
+    parser = build_parser()
+    try:
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # --help
+            return int(exc.code or 0)
+        _check_output(args.json, "--json")
+        _check_output(args.rrd, "--rrd")
+        config = load_config(args.preset, args.overrides)
+        session = Session(config, backend=args.sim)
+    except (BadInput, ConfigError, ValueError) as exc:
+        message = " ".join(str(exc).split())  # one line, whatever the source
+        print(f"{PROG}: error: {message}", file=sys.stderr)
+        return 2
+    result = run_session(session, duration=args.duration, rrd=args.rrd, preset_path=args.preset)
+    print(summary(result))
+    if args.json:
+        Path(args.json).write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
