@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 
 from dcmviz.sim.robots import SIDES, Robot, load_robot
-from dcmviz.sim.wbc import Context, Gains, WholeBodyController
+from dcmviz.sim.wbc import Context, Gains, MomentObserver, WholeBodyController
 from dcmviz.state import MeasuredState, WalkerCommand
 
 
@@ -53,6 +53,9 @@ class MujocoBackend:
         }
         self._body_ids = {n: i for i in range(self.model.nbody) if (n := self.model.body(i).name)}
         self._ctx: Context | None = None
+        gain = self.wbc.gains.k_moment_observer
+        self.moment_observer = MomentObserver(gain) if gain > 0 else None
+        self._observer_fresh = True
         self._contact = {s: False for s in SIDES}
         self._contact_force = {s: 0.0 for s in SIDES}
         self._applied = np.zeros(3)
@@ -68,10 +71,12 @@ class MujocoBackend:
         self.data.xfrc_applied[:] = 0.0
         mujoco.mj_forward(self.model, self.data)
         self.t = 0.0
+        self._observer_fresh = True
         self.wbc._tau = np.zeros(self.robot.nu)
         for k in self.timings:
             self.timings[k] = 0.0
         self.wbc.timings["qp_build"] = self.wbc.timings["qp_solve"] = 0.0
+        self._update()
         return self.measure()
 
     def _update(self) -> Context:
@@ -82,6 +87,15 @@ class MujocoBackend:
         self._ctx = self.wbc.kinematics.context(q, v)
         t1 = time.perf_counter()
         self._measure_contacts()
+        if self.moment_observer is not None:
+            if self._observer_fresh:
+                self.moment_observer.reset(self._ctx.angular_momentum)
+                self._observer_fresh = False
+            else:
+                self.moment_observer.update(
+                    self._ctx.angular_momentum, self._contact_moment, self.control_dt
+                )
+            self._ctx.external_moment = self.moment_observer.estimate.copy()
         self.timings["pinocchio"] += t1 - t0
         self.timings["other"] += time.perf_counter() - t1
         return self._ctx
@@ -92,6 +106,8 @@ class MujocoBackend:
         fn = {s: 0.0 for s in SIDES}
         touching = {s: False for s in SIDES}
         total = np.zeros(3)
+        moment = np.zeros(3)  # about the CoM
+        com = self._ctx.com
         wrench = np.zeros(6)
         for i in range(d.ncon):
             con = d.contact[i]
@@ -103,17 +119,23 @@ class MujocoBackend:
             fn[side] += wrench[0]
             # contact frame rows: normal (from geom1 to geom2), tangents; force acts on geom2
             sign = 1.0 if con.geom2 == self.robot.sole_geoms[side] else -1.0
-            total += sign * (con.frame.reshape(3, 3).T @ wrench[:3])
+            force = sign * (con.frame.reshape(3, 3).T @ wrench[:3])
+            total += force
+            r = con.pos - com
+            moment[0] += r[1] * force[2] - r[2] * force[1]
+            moment[1] += r[2] * force[0] - r[0] * force[2]
+            moment[2] += r[0] * force[1] - r[1] * force[0]
         self._contact_force = fn
         self._contact = touching
         self._applied = total
+        self._contact_moment = moment
 
     def measure(self) -> MeasuredState:
         """CoM, CoM velocity (Pinocchio on the simulated state), sole poses, measured contact.
 
         ``applied_contact_force`` is the sum of MuJoCo's sole contact forces (world frame, N), the
         force-sensor measurement the observer's eq. (42) uses as the known force."""
-        ctx = self._update()
+        ctx = self._ctx
         feet_yaw = {
             s: float(np.arctan2(ctx.sole_rotation[s][1, 0], ctx.sole_rotation[s][0, 0]))
             for s in SIDES
@@ -131,7 +153,7 @@ class MujocoBackend:
 
     def step(self, command: WalkerCommand) -> MeasuredState:
         """One control period: whole-body QP → torques → physics substeps → measurement."""
-        ctx = self._ctx if self._ctx is not None else self._update()
+        ctx = self._ctx
         sol = self.wbc.solve(ctx, command, self._contact)
         self.data.ctrl[:] = sol.tau
         t0 = time.perf_counter()
@@ -141,6 +163,7 @@ class MujocoBackend:
         self.timings["qp_build"] = self.wbc.timings["qp_build"]
         self.timings["qp_solve"] = self.wbc.timings["qp_solve"]
         self.t += self.control_dt
+        self._update()
         return self.measure()
 
     # ------------------------------------------------------------------------------------

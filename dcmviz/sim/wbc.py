@@ -52,6 +52,7 @@ class Gains:
     touchdown_depth: float = 0.01  # m below the footstep for a support foot not yet touching
     kd_stance: float = 10.0  # stance foot: a = -kd v (kills drift)
     k_angular_momentum: float = 5.0  # L̇ = -k L
+    k_moment_observer: float = 10.0  # 1/s, external-moment observer gain (0: off)
     w_force: float = 100.0
     w_angular_momentum: float = 0.5
     w_base: float = 3.0
@@ -84,6 +85,7 @@ class Context:
     sole_jacobian: dict[str, np.ndarray] = field(default_factory=dict)  # (6, nv) LWA
     sole_drift: dict[str, np.ndarray] = field(default_factory=dict)  # (6,) J̇ v, classical
     active: dict[str, bool] = field(default_factory=dict)  # wrench variable allowed
+    external_moment: np.ndarray = field(default_factory=lambda: np.zeros(3))  # estimate, N m
 
 
 class Kinematics:
@@ -162,7 +164,10 @@ class ContactForceTask(Task):
 
 
 class AngularMomentumTask(Task):
-    """Σ_i (p_i - c) × f_i + τ_i = L̇_des = -k L (moments about the CoM), scaled by 1/(m·1 m)."""
+    """Σ_i (p_i - c) × f_i + τ_i = -k L - τ̂_ext (moments about the CoM), scaled by 1/(m·1 m).
+
+    τ̂_ext is the estimated external moment about the CoM (:class:`MomentObserver`), so that a push
+    above or below the CoM is countered by the feet instead of spinning the robot."""
 
     def __init__(self, layout: Layout, mass: float, k: float, weight: float) -> None:
         self.layout, self.mass, self.k, self.weight = layout, mass, k, weight
@@ -173,7 +178,7 @@ class AngularMomentumTask(Task):
             i = self.layout.wrench[s].start
             self.A[:, i : i + 3] = _skew(ctx.sole_position[s] - ctx.com) / self.mass
             self.A[:, i + 3 : i + 6] = np.eye(3) / self.mass
-        return self.A, -self.k * ctx.angular_momentum / self.mass
+        return self.A, -(self.k * ctx.angular_momentum + ctx.external_moment) / self.mass
 
 
 class BaseOrientationTask(Task):
@@ -349,6 +354,25 @@ class TorqueLimits(Constraint):
         lo[:] = -self.limit - ctx.h[6:]
         up[:] = self.limit - ctx.h[6:]
         return False
+
+
+class MomentObserver:
+    """External moment about the CoM from the centroidal angular momentum (the angular twin of
+    the walker's eqs. 42–46): r = k_o (L(t) - L(0) - ∫ (τ_contact + r) dt), τ_contact the measured
+    contact moments about the CoM; ṙ = k_o (τ_ext - r), a first-order estimate of τ_ext."""
+
+    def __init__(self, gain: float) -> None:
+        self.gain = gain
+        self.reset(np.zeros(3))
+
+    def reset(self, angular_momentum: np.ndarray) -> None:
+        self.L0 = np.array(angular_momentum, dtype=float)
+        self.integral = np.zeros(3)
+        self.estimate = np.zeros(3)
+
+    def update(self, angular_momentum: np.ndarray, contact_moment: np.ndarray, dt: float) -> None:
+        self.integral += (contact_moment + self.estimate) * dt
+        self.estimate = self.gain * (angular_momentum - self.L0 - self.integral)
 
 
 # --------------------------------------------------------------------------------------------
