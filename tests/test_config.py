@@ -1,0 +1,140 @@
+"""Preset schema: round-trips, shipped presets, overrides, and errors that name the key."""
+
+from pathlib import Path
+
+import pytest
+
+from dcmviz.config import (
+    Config,
+    ConfigError,
+    apply_overrides,
+    config_from_dict,
+    dumps_preset,
+    field_info,
+    load_preset,
+    loads_preset,
+    save_preset,
+)
+
+PRESETS = sorted(Path(__file__).parents[1].joinpath("presets").glob("*.toml"))
+
+
+def test_presets_exist():
+    names = {p.stem for p in PRESETS}
+    assert {"walk_forward", "stand_walk_stand", "lateral_push", "tug_of_war", "stairs"} <= names
+
+
+@pytest.mark.parametrize("path", PRESETS, ids=lambda p: p.stem)
+def test_every_preset_loads_and_round_trips(path, tmp_path):
+    config = load_preset(path)
+    out = tmp_path / "again.toml"
+    save_preset(config, out)
+    assert load_preset(out) == config
+    assert loads_preset(dumps_preset(config)) == config
+
+
+def test_round_trip_with_explicit_footsteps_and_pushes(tmp_path):
+    data = {
+        "name": "custom",
+        "gait": {
+            "footsteps": [
+                {"side": "left", "position": [0.21, 0.0851, 0.0], "yaw": 0.1},
+                {"side": "right", "position": [0.4, -0.09, 0.0]},
+            ]
+        },
+        "pushes": [{"start": 1.25, "duration": 0.2, "force": [10.5, -3.25, 0.0], "ramp": 0.1}],
+    }
+    config = config_from_dict(data)
+    save_preset(config, tmp_path / "c.toml")
+    again = load_preset(tmp_path / "c.toml")
+    assert again == config
+    assert again.gait.footsteps[0].position == (0.21, 0.0851, 0.0)
+
+
+def test_defaults_match_design_schema():
+    c = Config()
+    assert (c.gait.n_steps, c.gait.step_length, c.gait.t_ss, c.gait.t_ds) == (10, 0.20, 0.7, 0.2)
+    assert (c.dcm.order, c.dcm.b, c.control.k_xi, c.control.k_f) == (5, 0.30, 3.0, 10.0)
+
+
+@pytest.mark.parametrize(
+    ("data", "words"),
+    [
+        ({"gait": {"t_ss": -0.7}}, ["gait.t_ss", "-0.7", "greater than"]),
+        ({"gait": {"t_ds": 0.0}}, ["gait.t_ds", "0.0"]),
+        ({"dcm": {"order": 2}}, ["dcm.order", "2", "0, 1, 3 or 5"]),
+        ({"dcm": {"b": 0.0}}, ["dcm.b", "0.0"]),
+        ({"robot": {"model": "atlas"}}, ["robot.model", "atlas", "talos", "g1"]),
+        ({"gait": {"n_step": 3}}, ["gait.n_step", "unknown key"]),
+        ({"gait": {"n_steps": "ten"}}, ["gait.n_steps", "ten"]),
+        ({"gait": {"step_length": 0.48}}, ["gait.step_length", "0.48", "reach"]),
+        ({"gait": {"step_width": 0.08}}, ["gait.step_width", "collide"]),
+        ({"pushes": [{"body": "head"}]}, ["pushes[0].body", "head", "torso"]),
+        ({"pushes": [{"force": [0, float("nan"), 0]}]}, ["pushes[0].force", "finite"]),
+        ({"pushes": [{"duration": 1.0, "ramp": 2.0}]}, ["ramp", "duration"]),
+        ({"sim": {"duration": 0}}, ["sim.duration", "0"]),
+        (
+            {"gait": {"footsteps": [{"side": "left", "position": [0.9, 0.1, 0.0]}]}},
+            ["gait.footsteps[0]", "reach"],
+        ),
+        (
+            {"gait": {"footsteps": [{"side": "left", "position": [0.1, -0.2, 0.0]}]}},
+            ["gait.footsteps[0]", "across"],
+        ),
+        (
+            {
+                "gait": {
+                    "footsteps": [
+                        {"side": "left", "position": [0.1, 0.1, 0.0]},
+                        {"side": "left", "position": [0.2, 0.1, 0.0]},
+                    ]
+                }
+            },
+            ["footsteps[1].side", "alternate"],
+        ),
+    ],
+)
+def test_bad_values_name_key_value_and_allowed(data, words):
+    with pytest.raises(ConfigError) as err:
+        config_from_dict(data)
+    message = str(err.value)
+    for word in words:
+        assert word in message, message
+
+
+def test_bad_toml_and_missing_file(tmp_path):
+    with pytest.raises(ConfigError, match="not valid TOML"):
+        loads_preset("name = ")
+    with pytest.raises(ConfigError, match="does not exist"):
+        load_preset(tmp_path / "nope.toml")
+    with pytest.raises(ConfigError, match="bytes"):
+        loads_preset("# " + "x" * 70000)
+
+
+def test_overrides_use_toml_literals():
+    c = apply_overrides(Config(), ["control.observer=false", "dcm.b=0.31", 'robot.model="g1"'])
+    assert (c.control.observer, c.dcm.b, c.robot.model) == (False, 0.31, "g1")
+    for bad, word in [
+        ("dcm.b", "section.key=value"),
+        ("b=0.3", "section.key"),
+        ("dcm.b=abc", "TOML literal"),
+        ("foo.b=1", "unknown section"),
+        ("dcm.bb=1", "dcm.bb"),
+    ]:
+        with pytest.raises(ConfigError, match=word):
+            apply_overrides(Config(), [bad])
+
+
+def test_config_is_immutable_and_replace_validates():
+    c = Config()
+    with pytest.raises(Exception):  # noqa: B017 - pydantic's frozen error
+        c.gait.n_steps = 3
+    assert c.replace(gait={**c.gait.model_dump(), "n_steps": 3}).gait.n_steps == 3
+    with pytest.raises(ConfigError, match="gait.n_steps"):
+        c.replace(gait={**c.gait.model_dump(), "n_steps": 0})
+
+
+def test_field_info_for_gui_labels():
+    info = field_info("gait", "t_ss")
+    assert info["symbol"] == "T_ss" and info["unit"] == "s" and info["gt"] == 0.1
+    assert field_info("dcm", "b")["ge"] == 0.15

@@ -1,0 +1,144 @@
+"""Footstep plans, VRP waypoints, contact schedule and swing paths."""
+
+import math
+
+import numpy as np
+import pytest
+
+from dcmviz import GRAVITY
+from dcmviz.config import Config, config_from_dict
+from dcmviz.gait import (
+    Footstep,
+    SwingTrajectory,
+    build_plan,
+    horizon_steps,
+    plan_footsteps,
+    plan_from_config,
+    timing_of,
+)
+
+
+def test_waypoints_sit_dz_above_the_feet_and_d1_d2_d3_hold():
+    config = Config()
+    plan = plan_from_config(config)
+    dz = GRAVITY * 0.3**2
+    feet = plan.start_feet
+    mid0 = 0.5 * (feet["left"].position + feet["right"].position) + [0, 0, dz]
+    mid_end = 0.5 * (plan.steps[-1].position + plan.steps[-2].position) + [0, 0, dz]
+    wp = plan.waypoints
+    np.testing.assert_allclose(wp[0], mid0, atol=1e-12)  # D1
+    np.testing.assert_allclose(plan.preview.xi_ref_0[0], mid0, atol=1e-9)  # D2
+    np.testing.assert_allclose(wp[-1], mid_end, atol=1e-12)  # D3
+    np.testing.assert_allclose(plan.preview.dcm(plan.duration), mid_end, atol=1e-12)  # (17)
+    # every single-support phase keeps the VRP on the stance sole, Δz_vrp above it
+    for p, kind in enumerate(plan.phase_kind):
+        if kind == "ss":
+            stance = plan.stance_for(plan.phase_step[p])
+            np.testing.assert_allclose(wp[p], stance.position + [0, 0, dz], atol=1e-12)
+            np.testing.assert_allclose(wp[p + 1], stance.position + [0, 0, dz], atol=1e-12)
+
+
+def test_durations_and_phase_sequence():
+    g = Config().gait
+    plan = plan_from_config(Config())
+    n = g.n_steps
+    assert plan.phase_kind == ("start_a", "start_b") + ("ss", "ds") * (n - 1) + ("ss", "stop")
+    expected = g.t_start + n * g.t_ss + (n - 1) * g.t_ds + g.t_stop
+    assert plan.duration == pytest.approx(expected, abs=1e-12)
+
+
+def test_generated_steps_alternate_turn_and_climb():
+    c = config_from_dict(
+        {"gait": {"n_steps": 6, "turn": 0.2, "step_height": 0.05, "step_length": 0.2}}
+    )
+    _, steps = plan_footsteps(c.gait)
+    assert [s.side for s in steps] == ["left", "right"] * 3
+    assert steps[4].yaw == pytest.approx(5 * 0.2)
+    assert steps[4].position[2] == pytest.approx(5 * 0.05)
+    assert steps[5].position[2] == pytest.approx(steps[4].position[2])  # closing step
+    # feet stay step_width apart across the heading
+    a, b = steps[4], steps[5]
+    lateral = (b.position - a.position)[:2] @ np.array([-math.sin(a.yaw), math.cos(a.yaw)])
+    assert abs(lateral) == pytest.approx(c.gait.step_width, abs=1e-9)
+    # stairs: the VRP rises with the feet (3-D waypoints)
+    plan = plan_from_config(c)
+    assert plan.waypoints[-1][2] == pytest.approx(steps[-1].position[2] + GRAVITY * 0.09)
+
+
+def test_contact_schedule():
+    plan = plan_from_config(Config())
+    g = Config().gait
+    t_lift = g.t_start + 0.1
+    c = plan.contact(t_lift)
+    assert c.kind == "ss" and c.swing_side == "left" and c.support == {"left": False, "right": True}
+    c = plan.contact(g.t_start + g.t_ss + 0.05)
+    assert c.kind == "ds" and c.support == {"left": True, "right": True}
+    c = plan.contact(g.t_start + g.t_ss + g.t_ds + 0.05)
+    assert c.swing_side == "right"
+    assert plan.contact(plan.duration + 1.0).kind == "stand"
+    assert plan.swing_window(0) == pytest.approx((g.t_start, g.t_start + g.t_ss))
+
+
+def test_with_step_moves_only_that_footsteps_waypoints():
+    plan = plan_from_config(Config())
+    delta = np.array([0.03, -0.05, 0.0])
+    moved = plan.with_step(3, plan.steps[3].position + delta)
+    changed = np.where(np.any(moved.waypoints != plan.waypoints, axis=1))[0]
+    assert set(changed) == set(plan.step_waypoint_weights[3])
+    np.testing.assert_allclose(
+        moved.waypoints[changed] - plan.waypoints[changed],
+        np.tile(delta, (len(changed), 1)),
+        atol=1e-12,
+    )
+    # the DCM reference before the first affected phase moves, but smoothly (eq. 34: linear)
+    t = plan.phase_start(plan.first_affected_phase(3)) - 0.3
+    expected = plan.preview.dcm(t) + (plan.preview.dcm_weights(t) @ plan.selection(3)) * delta
+    np.testing.assert_allclose(moved.preview.dcm(t), expected, atol=1e-12)
+
+
+def test_continuous_horizon_and_transfer_plan():
+    g = config_from_dict({"gait": {"mode": "continuous"}}).gait
+    feet = {
+        s: Footstep(s, np.array([0.0, y, 0.0])) for s, y in (("left", 0.085), ("right", -0.085))
+    }
+    steps = horizon_steps(g, feet, "left", 4)
+    assert [s.side for s in steps] == ["left", "right", "left", "right"]
+    np.testing.assert_allclose([s.position[0] for s in steps], [0.2, 0.4, 0.6, 0.8], atol=1e-12)
+    plan = build_plan(feet, steps, timing_of(g), 0.3, 5, start="transfer", landed="left", t0=5.0)
+    assert plan.phase_kind[0] == "ds" and plan.t0 == 5.0
+    # begins with the VRP on the foot the weight leaves
+    np.testing.assert_allclose(plan.preview.vrp(0.0)[:2], feet["right"].position[:2])
+
+
+def _fd(fun, t, h=1e-5):
+    return (fun(t + h) - fun(t - h)) / (2 * h)
+
+
+def test_swing_path_boundary_conditions_and_retarget_is_c2():
+    lift = Footstep("left", np.array([0.0, 0.085, 0.0]))
+    touch = Footstep("left", np.array([0.4, 0.085, 0.05]), 0.2)
+    swing = SwingTrajectory.between(1.0, 1.7, lift, touch)
+    p, v, a, yaw, _ = swing.sample(1.0)
+    np.testing.assert_allclose(p, lift.position, atol=1e-12)
+    np.testing.assert_allclose(v, 0, atol=1e-12)
+    p, v, a, yaw, _ = swing.sample(1.7)
+    np.testing.assert_allclose(p, touch.position, atol=1e-12)
+    assert yaw == pytest.approx(0.2)
+    assert swing.sample(1.35)[0][2] > 0.05 + 0.04  # clears the higher end by the apex height
+    # velocity / acceleration are the derivatives of position (finite differences)
+    for t in (1.1, 1.3, 1.55):
+        np.testing.assert_allclose(
+            swing.sample(t)[1], _fd(lambda s: swing.sample(s)[0], t), atol=1e-5
+        )
+        np.testing.assert_allclose(
+            swing.sample(t)[2], _fd(lambda s: swing.sample(s)[1], t), atol=1e-3
+        )
+    # re-targeting mid-swing keeps position, velocity and acceleration continuous
+    t_r = 1.3
+    new = swing.retarget(t_r, np.array([0.45, 0.2, 0.05]))
+    for i in range(3):
+        np.testing.assert_allclose(new.sample(t_r)[i], swing.sample(t_r)[i], atol=1e-9)
+    np.testing.assert_allclose(new.sample(1.7)[0][:2], [0.45, 0.2], atol=1e-12)
+    np.testing.assert_allclose(new.sample(1.7)[1], 0, atol=1e-9)
+    # frozen near touchdown
+    assert swing.retarget(1.65, np.array([1.0, 1.0, 0.0])) is swing
