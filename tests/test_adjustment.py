@@ -71,7 +71,7 @@ def test_d_rises_from_exp_minus_tss_over_b_to_one(order):
     A_T = dense_A_xi_ref_T(plan.preview)
     times = np.linspace(t_lift, t_fa, 15)
     d = [adaptation_factor(plan.preview, t, phi_fa, plan.selection(k)) for t in times]
-    for t, value in zip(times, d):
+    for t, value in zip(times, d, strict=True):
         D = dense_d(plan.preview, t, S3, phi_fa, A_T)
         np.testing.assert_allclose(D, value * np.eye(3), atol=1e-9)  # d_φ(t) I, eq. (35)
         # during single support the VRP stands still, so d = exp((t − t_touch)/b) exactly
