@@ -573,7 +573,7 @@ class SwingTrajectory:
         if t >= self.t_lift + RETARGET_FREEZE * (self.t_touch - self.t_lift) or t >= self.t_touch:
             return self
         target = np.asarray(target, dtype=float)
-        if np.allclose(target[:2], self.target[:2], atol=1e-6):
+        if abs(target[0] - self.target[0]) < 1e-6 and abs(target[1] - self.target[1]) < 1e-6:
             return self
         t = max(t, self.t_seg)
         p, v, a = self._horizontal(t)
@@ -594,11 +594,10 @@ class SwingTrajectory:
 
     def _horizontal(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         tau = min(max(t, self.t_seg), self.t_touch) - self.t_seg
-        c = self.coeffs
-        powers = tau ** np.arange(6)
-        p = powers @ c
-        v = (np.arange(1, 6) * tau ** np.arange(5)) @ c[1:]
-        a = (np.array([2, 6, 12, 20]) * tau ** np.arange(4)) @ c[2:]
+        c0, c1, c2, c3, c4, c5 = self.coeffs  # Horner on (3,) rows
+        p = c0 + tau * (c1 + tau * (c2 + tau * (c3 + tau * (c4 + tau * c5))))
+        v = c1 + tau * (2 * c2 + tau * (3 * c3 + tau * (4 * c4 + tau * 5 * c5)))
+        a = 2 * c2 + tau * (6 * c3 + tau * (12 * c4 + tau * 20 * c5))
         if t >= self.t_touch:
             v, a = np.zeros(3), np.zeros(3)
         return p, v, a

@@ -55,20 +55,30 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
 
 
 def project_to_polygon(point: np.ndarray, polygon: np.ndarray) -> tuple[np.ndarray, float]:
-    """Closest point of a convex CCW polygon to ``point`` (2,), and the distance (0 inside)."""
-    a = polygon
-    edge = np.empty_like(a)
-    edge[:-1] = a[1:] - a[:-1]
-    edge[-1] = a[0] - a[-1]
-    rel = point - a
-    cross = edge[:, 0] * rel[:, 1] - edge[:, 1] * rel[:, 0]
-    if np.all(cross >= 0.0):
-        return point.copy(), 0.0
-    s = np.clip(np.einsum("ij,ij->i", rel, edge) / np.einsum("ij,ij->i", edge, edge), 0.0, 1.0)
-    closest = a + s[:, None] * edge
-    d = np.linalg.norm(closest - point, axis=1)
-    i = int(np.argmin(d))
-    return closest[i], float(d[i])
+    """Closest point of a convex CCW polygon to ``point`` (2,), and the distance (0 inside).
+
+    Plain floats: the polygons have at most 8 vertices and this runs twice per control tick.
+    """
+    px, py = float(point[0]), float(point[1])
+    verts = polygon.tolist()
+    n = len(verts)
+    inside = True
+    best = (math.inf, px, py)
+    for i in range(n):
+        ax, ay = verts[i]
+        bx, by = verts[(i + 1) % n]
+        ex, ey = bx - ax, by - ay
+        rx, ry = px - ax, py - ay
+        if ex * ry - ey * rx < 0.0:
+            inside = False
+        s = min(max((rx * ex + ry * ey) / (ex * ex + ey * ey), 0.0), 1.0)
+        cx, cy = ax + s * ex, ay + s * ey
+        d2 = (cx - px) ** 2 + (cy - py) ** 2
+        if d2 < best[0]:
+            best = (d2, cx, cy)
+    if inside:
+        return np.array([px, py]), 0.0
+    return np.array([best[1], best[2]]), math.sqrt(best[0])
 
 
 class LipBackend:
