@@ -109,19 +109,24 @@ class MujocoBackend:
         moment = np.zeros(3)  # about the CoM
         com = self._ctx.com
         wrench = np.zeros(6)
-        for i in range(d.ncon):
-            con = d.contact[i]
-            side = self._geom_side.get(con.geom1) or self._geom_side.get(con.geom2)
+        ncon = d.ncon
+        if ncon:
+            geoms = d.contact.geom[:ncon]
+            frames = d.contact.frame[:ncon]
+            positions = d.contact.pos[:ncon]
+        for i in range(ncon):
+            g1, g2 = int(geoms[i, 0]), int(geoms[i, 1])
+            side = self._geom_side.get(g1) or self._geom_side.get(g2)
             if side is None:
                 continue
             touching[side] = True
             mujoco.mj_contactForce(m, d, i, wrench)
             fn[side] += wrench[0]
             # contact frame rows: normal (from geom1 to geom2), tangents; force acts on geom2
-            sign = 1.0 if con.geom2 == self.robot.sole_geoms[side] else -1.0
-            force = sign * (con.frame.reshape(3, 3).T @ wrench[:3])
+            sign = 1.0 if g2 == self.robot.sole_geoms[side] else -1.0
+            force = sign * (frames[i].reshape(3, 3).T @ wrench[:3])
             total += force
-            r = con.pos - com
+            r = positions[i] - com
             moment[0] += r[1] * force[2] - r[2] * force[1]
             moment[1] += r[2] * force[0] - r[0] * force[2]
             moment[2] += r[0] * force[1] - r[1] * force[0]

@@ -16,6 +16,7 @@ Solved with daqp (dense active set; fastest measured on this QP, see DESIGN.md).
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -30,12 +31,8 @@ _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _INF = 1e30
 
 
-def _skew(a: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-
-
 def _rot_z(yaw: float) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
+    c, s = math.cos(yaw), math.sin(yaw)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
@@ -172,12 +169,18 @@ class AngularMomentumTask(Task):
     def __init__(self, layout: Layout, mass: float, k: float, weight: float) -> None:
         self.layout, self.mass, self.k, self.weight = layout, mass, k, weight
         self.A = np.zeros((3, layout.nx))
+        for s in SIDES:
+            i = layout.wrench[s].start
+            self.A[:, i + 3 : i + 6] = np.eye(3) / mass
 
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
+        A, inv_m = self.A, 1.0 / self.mass
         for s in SIDES:
             i = self.layout.wrench[s].start
-            self.A[:, i : i + 3] = _skew(ctx.sole_position[s] - ctx.com) / self.mass
-            self.A[:, i + 3 : i + 6] = np.eye(3) / self.mass
+            rx, ry, rz = (ctx.sole_position[s] - ctx.com) * inv_m
+            A[0, i + 1], A[0, i + 2] = -rz, ry  # [r]× f
+            A[1, i], A[1, i + 2] = rz, -rx
+            A[2, i], A[2, i + 1] = -ry, rx
         return self.A, -(self.k * ctx.angular_momentum + ctx.external_moment) / self.mass
 
 
@@ -189,8 +192,8 @@ class BaseOrientationTask(Task):
         self.A = np.zeros((3, layout.nx))
 
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
-        yaws = [cmd.feet[s].yaw for s in SIDES]
-        yaw = float(np.arctan2(np.mean(np.sin(yaws)), np.mean(np.cos(yaws))))
+        y_l, y_r = cmd.feet["left"].yaw, cmd.feet["right"].yaw
+        yaw = math.atan2(math.sin(y_l) + math.sin(y_r), math.cos(y_l) + math.cos(y_r))
         err = pin.log3(_rot_z(yaw) @ ctx.base_rotation.T)
         self.A[:, 3:6] = ctx.base_rotation  # ω_world = R ω_local, ω̇_world = R ω̇_local
         return self.A, self.kp * err - self.kd * ctx.base_omega
@@ -326,13 +329,14 @@ class ContactWrenchCone(Constraint):
             ],
             dtype=float,
         )
+        self.C_force, self.C_moment = self.C[:, :3].copy(), self.C[:, 3:].copy()
         self.min_force = gains.min_normal_force
 
     def compute(self, ctx, cmd, A, lo, up) -> bool:
         rot_t = ctx.sole_rotation[self.side].T
-        A[:, self.layout.wrench[self.side]] = np.hstack(
-            (self.C[:, :3] @ rot_t, self.C[:, 3:] @ rot_t)
-        )
+        i = self.layout.wrench[self.side].start
+        A[:, i : i + 3] = self.C_force @ rot_t
+        A[:, i + 3 : i + 6] = self.C_moment @ rot_t
         lo[:] = -_INF
         up[:] = 0.0
         if ctx.active[self.side]:
