@@ -117,3 +117,32 @@ def test_external_force_input_is_validated():
         backend.set_external_force("torso", np.array([np.nan, 0.0, 0.0]))
     backend.set_external_force("torso", np.array([0.0, 10.0, 0.0]))
     backend.set_external_force("leg_left_3_link", np.array([0.0, 10.0, 0.0]))
+
+
+def _survives_push(impulse_ns: float, step_adjustment: bool) -> bool:
+    """Talos walking; a lateral 0.2 s torso push centred on mid single support of step 3."""
+    flag = "true" if step_adjustment else "false"
+    config = apply_overrides(
+        load_preset(PRESETS / "walk_forward.toml"),
+        [f"control.step_adjustment={flag}", "control.observer=false"],
+    )
+    backend = MujocoBackend("talos")
+    state = backend.reset()
+    walker = Walker(config, mass=backend.mass, dt=backend.control_dt)
+    walker.reset(state)
+    t_push, duration = 3.05, 0.2  # single support of step 3: 2.8 s .. 3.5 s
+    while state.t < t_push + 3.0:
+        pushing = t_push <= state.t < t_push + duration
+        backend.set_external_force("torso", np.array([0.0, impulse_ns / duration * pushing, 0.0]))
+        state = backend.step(walker.step(state))
+        if backend.fell():
+            return False
+    return True
+
+
+@pytest.mark.slow
+def test_step_adjustment_recovers_a_push_tracking_alone_cannot():
+    """30 N·s at mid single support: tracking alone falls (it survives ~10-20 N·s), step
+    adjustment recovers (it survives up to ~30-40 N·s): ≥ 1.5× and ≥ 30 N·s."""
+    assert _survives_push(30.0, step_adjustment=True)
+    assert not _survives_push(30.0, step_adjustment=False)
