@@ -1,0 +1,57 @@
+"""dcmviz dashboard: ``python app.py [--preset PATH] [--host 127.0.0.1] [--port 8080]``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from dcmviz.config import Config, ConfigError, load_preset
+
+ROOT = Path(__file__).resolve().parent
+DEFAULT_PRESET = ROOT / "presets" / "walk_forward.toml"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--preset", type=Path, default=None, help="preset TOML to start with")
+    parser.add_argument("--host", default="127.0.0.1", help="bind address (default: loopback)")
+    parser.add_argument("--port", type=int, default=8080)
+    args = parser.parse_args(argv)
+    try:
+        if args.preset is not None:
+            config = load_preset(args.preset)
+        elif DEFAULT_PRESET.exists():
+            config = load_preset(DEFAULT_PRESET)
+        else:
+            config = Config()
+    except ConfigError as err:
+        print(f"app.py: {err}", file=sys.stderr)
+        return 2
+    if not 0 < args.port < 65536:
+        print(f"app.py: --port {args.port}: must be in 1..65535", file=sys.stderr)
+        return 2
+
+    from dcmviz.dashboard import serve
+
+    try:
+        server, dashboard = serve(
+            config, host=args.host, port=args.port, presets_dir=ROOT / "presets"
+        )
+    except OSError as err:
+        print(f"app.py: cannot listen on {args.host}:{args.port}: {err}", file=sys.stderr)
+        return 2
+    shown = "localhost" if args.host in ("127.0.0.1", "::1") else args.host
+    print(f"dcmviz dashboard: http://{shown}:{server.get_port()}  (Ctrl-C to stop)", flush=True)
+    try:
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        dashboard.stop()
+        server.stop()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

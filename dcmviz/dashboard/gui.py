@@ -1,0 +1,189 @@
+"""Panel controls built from the preset schema (:func:`dcmviz.config.field_info`).
+
+Every control is labelled ``symbol [unit]`` and takes its range from the schema's bounds, so a
+control and the schema cannot disagree.  ``Controls`` only creates handles and writes values into
+them; what a change means lives in :class:`~dcmviz.dashboard.dashboard.Dashboard`.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import viser
+
+from dcmviz.config import Config, field_info
+
+
+@dataclass(frozen=True)
+class SliderSpec:
+    section: str
+    name: str
+    step: float
+    lo: float | None = None  # tighter than the schema, for usability (never looser)
+    hi: float | None = None
+
+
+FOOTSTEP_SLIDERS = (
+    SliderSpec("gait", "n_steps", 1, hi=40),
+    SliderSpec("gait", "step_length", 0.01),
+    SliderSpec("gait", "step_width", 0.01),
+    SliderSpec("gait", "step_height", 0.01),
+    SliderSpec("gait", "turn", 0.01),
+    SliderSpec("gait", "t_ss", 0.05),
+    SliderSpec("gait", "t_ds", 0.01),
+    SliderSpec("gait", "t_start", 0.1),
+    SliderSpec("gait", "t_stop", 0.1),
+)
+DCM_SLIDERS = (SliderSpec("dcm", "b", 0.005),)
+CONTROL_SLIDERS = (
+    SliderSpec("control", "k_xi", 0.1),
+    SliderSpec("control", "max_step_adjustment", 0.01),
+    SliderSpec("control", "k_f", 0.5, hi=100.0),
+)
+# geometric fields: changing one regenerates the footsteps (drops dragged, explicit ones)
+GEOMETRY_FIELDS = {"n_steps", "step_length", "step_width", "step_height", "turn", "first_swing"}
+
+
+def label(section: str, name: str) -> str:
+    """``symbol [unit]`` from the schema (the field name when it has no symbol)."""
+    info = field_info(section, name)
+    text = info["symbol"] or name
+    return f"{text} [{info['unit']}]" if info["unit"] else text
+
+
+def slider_range(spec: SliderSpec) -> tuple[float, float]:
+    """(min, max) of a slider: the schema bounds (open bounds moved in by one step)."""
+    info = field_info(spec.section, spec.name)
+    lo = info.get("ge", info["gt"] + spec.step if "gt" in info else 0.0)
+    hi = info.get("le", info["lt"] - spec.step if "lt" in info else lo + 100 * spec.step)
+    if spec.lo is not None:
+        lo = max(lo, spec.lo)
+    if spec.hi is not None:
+        hi = min(hi, spec.hi)
+    return round(lo, 6), round(hi, 6)
+
+
+class Controls:
+    """Handles for every config field, keyed by ``(section, name)``."""
+
+    def __init__(self, gui: viser.GuiApi, config: Config) -> None:
+        self.gui = gui
+        self.handles: dict[tuple[str, str], viser.GuiInputHandle[Any]] = {}
+        self._quiet = threading.local()
+        self.extra: dict[str, Any] = {}
+        self._callback: Callable[[str, str, Any, viser.ClientHandle | None], None] | None = None
+
+        with gui.add_folder("Footsteps"):
+            for spec in FOOTSTEP_SLIDERS:
+                self._slider(spec, config)
+            self._dropdown("gait", "first_swing", ("left", "right"), config)
+            self.extra["reset_footsteps"] = gui.add_button(
+                "Regenerate footsteps", hint="Drop dragged footsteps, use the generated ones"
+            )
+            self.extra["gizmos"] = gui.add_checkbox(
+                "Drag footsteps in 3D", initial_value=True, hint="Transform gizmos on each step"
+            )
+        with gui.add_folder("DCM (Table I)"):
+            self._dropdown("dcm", "order", ("0", "1", "3", "5"), config)
+            for spec in DCM_SLIDERS:
+                self._slider(spec, config)
+            self.extra["dz_vrp"] = gui.add_markdown("")
+        with gui.add_folder("Control (§III)"):
+            self._slider(CONTROL_SLIDERS[0], config)
+            self._checkbox("control", "step_adjustment", "Step adjustment (eqs. 27–35)", config)
+            self._slider(CONTROL_SLIDERS[1], config)
+            self._checkbox("control", "observer", "Disturbance observer (eqs. 42–49)", config)
+            self._slider(CONTROL_SLIDERS[2], config)
+
+    # -- construction ---------------------------------------------------------------------------
+    def _slider(self, spec: SliderSpec, config: Config) -> None:
+        lo, hi = slider_range(spec)
+        value = getattr(getattr(config, spec.section), spec.name)
+        info = field_info(spec.section, spec.name)
+        handle = self.gui.add_slider(
+            label(spec.section, spec.name),
+            min=lo,
+            max=hi,
+            step=spec.step,
+            initial_value=min(max(value, lo), hi),
+            hint=info["description"],
+        )
+        self.handles[(spec.section, spec.name)] = handle
+
+    def _dropdown(self, section: str, name: str, options: tuple[str, ...], config: Config) -> None:
+        info = field_info(section, name)
+        value = str(getattr(getattr(config, section), name))
+        handle = self.gui.add_dropdown(
+            label(section, name), options, initial_value=value, hint=info["description"] or None
+        )
+        self.handles[(section, name)] = handle
+
+    def _checkbox(self, section: str, name: str, text: str, config: Config) -> None:
+        info = field_info(section, name)
+        handle = self.gui.add_checkbox(
+            text, initial_value=bool(getattr(getattr(config, section), name)),
+            hint=info["description"] or None,
+        )  # fmt: skip
+        self.handles[(section, name)] = handle
+
+    def add_field_dropdown(
+        self, section: str, name: str, text: str, options: tuple[str, ...], config: Config
+    ) -> None:
+        """A dropdown for a schema field outside the three tuning folders (mode, backend, robot)."""
+        info = field_info(section, name)
+        handle = self.gui.add_dropdown(
+            text, options, initial_value=str(getattr(getattr(config, section), name)),
+            hint=info["description"] or None,
+        )  # fmt: skip
+        self.handles[(section, name)] = handle
+        if self._callback is not None:
+            handle.on_update(self._forward(section, name, self._callback))
+
+    # -- wiring -----------------------------------------------------------------------------------
+    def on_change(
+        self, callback: Callable[[str, str, Any, viser.ClientHandle | None], None]
+    ) -> None:
+        """Call ``callback(section, name, value, client)`` when a user changes a control."""
+        self._callback = callback
+        for (section, name), handle in self.handles.items():
+            handle.on_update(self._forward(section, name, callback))
+
+    def _forward(self, section: str, name: str, callback: Callable) -> Callable:
+        def forward(event: viser.GuiEvent) -> None:
+            if getattr(self._quiet, "on", False):
+                return  # a value written by show(), not by a user
+            callback(section, name, event.target.value, event.client)
+
+        return forward
+
+    def show(self, config: Config) -> None:
+        """Write a config into the controls without triggering the change callbacks."""
+        self._quiet.on = True
+        try:
+            for (section, name), handle in self.handles.items():
+                value = getattr(getattr(config, section), name)
+                if isinstance(handle.value, str):
+                    value = str(value)
+                elif isinstance(handle.value, bool):
+                    value = bool(value)
+                handle.value = value
+        finally:
+            self._quiet.on = False
+
+
+def parse_value(config: Config, section: str, name: str, value: Any) -> Any:
+    """Control value → the schema's type (dropdown strings back to ints for the order)."""
+    current = getattr(getattr(config, section), name)
+    if isinstance(current, bool):
+        return bool(value)
+    if isinstance(current, int) and isinstance(value, str):
+        try:
+            return int(value)
+        except ValueError:
+            return value  # let the schema name the bad value
+    if isinstance(current, int) and isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value

@@ -1,0 +1,317 @@
+"""The simulation in a background thread: it owns the session and its clock.
+
+The dashboard never touches the session directly: it posts commands (new config, reset, push,
+play/pause, speed) and reads the latest immutable :class:`Snapshot` (mjviser's inversion of
+control: the loop owns time, the view reads snapshots).
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from dcmviz.config import Config
+from dcmviz.gait import Footstep
+
+FALL_PAUSE_S = 1.0  # wall seconds the fallen robot stays visible before the reset
+PLAN_END_PAUSE_S = 1.5  # sim seconds standing at the end of a plan before looping
+SNAPSHOT_DT = 1.0 / 60.0  # wall seconds between published snapshots
+HISTORY_WINDOW_S = 8.0  # sim seconds of history in a snapshot
+HISTORY_DT = 0.2  # wall seconds between history copies (the live plot rate)
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """What the view draws, copied out of the session by the simulation thread."""
+
+    t: float = 0.0
+    backend: str = ""
+    robot: str = ""
+    playing: bool = False
+    speed: float = 1.0
+    real_time_factor: float = 0.0
+    falls: int = 0
+    fallen: bool = False
+    done: bool = False
+    base_position: np.ndarray | None = None
+    base_wxyz: np.ndarray | None = None
+    joints: dict[str, float] = field(default_factory=dict)
+    com: np.ndarray | None = None
+    feet: dict[str, tuple[np.ndarray, float]] = field(default_factory=dict)  # side → (pos, yaw)
+    xi: np.ndarray | None = None
+    xi_ref: np.ndarray | None = None
+    xi_adj: np.ndarray | None = None
+    v_cmd: np.ndarray | None = None
+    f_hat: np.ndarray | None = None
+    pushes: tuple = ()  # (body, world point, force N) applied this tick
+    adjusted_steps: tuple = ()  # Footsteps (gait.Footstep) still to come, as adjusted
+    realised_steps: tuple = ()  # Footsteps where the feet really landed
+    history: dict[str, np.ndarray] = field(default_factory=dict)
+    version: int = 0  # config version this snapshot was simulated with
+    step_time_s: float = 0.0  # mean wall time of one control tick
+
+
+def _arr(x: Any) -> np.ndarray | None:
+    return None if x is None else np.array(x, dtype=float)
+
+
+class SimLoop:
+    """Runs ``session.step()`` paced to real time × speed in a daemon thread."""
+
+    def __init__(
+        self,
+        session_factory: Callable[[Config], Any],
+        config: Config,
+        *,
+        on_event: Callable[[str, str], None] | None = None,
+        loop_plan: bool = True,
+    ) -> None:
+        self._factory = session_factory
+        self.session = session_factory(config)
+        self.on_event = on_event or (lambda kind, message: None)
+        self.loop_plan = loop_plan
+        self.playing = True
+        self.speed = 1.0
+        self.falls = 0
+        self.version = 0
+        self.snapshot = Snapshot()
+        self._commands: queue.Queue[tuple[str, Any]] = queue.Queue()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._rtf_window: deque[tuple[float, float]] = deque(maxlen=120)
+        self._step_times: deque[float] = deque(maxlen=200)
+        self._fallen_at: float | None = None
+        self._last_history = 0.0
+        self._publish()
+
+    # -- commands (any thread) --------------------------------------------------------------------
+    def post(self, kind: str, payload: Any = None) -> None:
+        """Queue a command: config, reset, push, play, speed, loop, record, call."""
+        self._commands.put((kind, payload))
+
+    def call(self, fn: Callable[[Any], Any], timeout: float = 10.0) -> Any:
+        """Run ``fn(session)`` on the simulation thread (or here if it is not running)."""
+        if self._thread is None or not self._thread.is_alive():
+            return fn(self.session)
+        done = threading.Event()
+        box: dict[str, Any] = {}
+
+        def run(session: Any) -> None:
+            try:
+                box["value"] = fn(session)
+            except Exception as err:  # noqa: BLE001 - handed back to the caller
+                box["error"] = err
+            done.set()
+
+        self.post("call", run)
+        if not done.wait(timeout):
+            raise TimeoutError("the simulation thread did not answer")
+        if "error" in box:
+            raise box["error"]
+        return box.get("value")
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name="dcmviz-sim", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+
+    # -- the thread -------------------------------------------------------------------------------
+    def _run(self) -> None:
+        wall0, sim0 = time.perf_counter(), self.session.t
+        last_publish = 0.0
+        while not self._stop.is_set():
+            if self._handle_commands():
+                wall0, sim0 = time.perf_counter(), self.session.t
+                self._rtf_window.clear()
+            now = time.perf_counter()
+            if self._fallen_at is not None:
+                if now - self._fallen_at >= FALL_PAUSE_S:
+                    self._fallen_at = None
+                    self.session.reset()
+                    wall0, sim0 = time.perf_counter(), self.session.t
+                    self._publish()
+                time.sleep(0.02)
+                continue
+            if not self.playing:
+                if now - last_publish > 0.1:
+                    self._publish()
+                    last_publish = now
+                time.sleep(0.02)
+                wall0, sim0 = time.perf_counter(), self.session.t
+                continue
+            target = sim0 + self.speed * (now - wall0)
+            frame_end = now + SNAPSHOT_DT
+            while self.session.t < target and time.perf_counter() < frame_end:
+                t_step = time.perf_counter()
+                try:
+                    self.session.step()
+                except Exception as err:  # noqa: BLE001 - a crash in physics must not kill the UI
+                    self.on_event("error", f"simulation error at t = {self.session.t:.2f} s: {err}")
+                    self.session.reset()
+                    break
+                self._step_times.append(time.perf_counter() - t_step)
+                if getattr(self.session, "fell", False):
+                    self.falls += 1
+                    self._fallen_at = time.perf_counter()
+                    self.on_event(
+                        "fell", f"The robot fell at t = {self.session.t:.2f} s; resetting."
+                    )
+                    break
+            if self.session.t < target - 0.25:  # cannot keep up: stop trying to catch up
+                wall0, sim0 = time.perf_counter(), self.session.t
+            self._maybe_loop_plan()
+            now = time.perf_counter()
+            self._rtf_window.append((now, self.session.t))
+            if now - last_publish >= SNAPSHOT_DT or self._fallen_at is not None:
+                self._publish()
+                last_publish = now
+            ahead = (self.session.t - target) / max(self.speed, 1e-3)
+            time.sleep(min(max(ahead, 0.0), 0.01) if ahead > 0 else 0.0005)
+
+    def _maybe_loop_plan(self) -> None:
+        session = self.session
+        if not self.loop_plan or session.config.gait.mode != "plan":
+            return
+        plan = session.plan
+        if session.t > plan.t_end + PLAN_END_PAUSE_S:
+            session.reset()
+            self._rtf_window.clear()
+
+    def _handle_commands(self) -> bool:
+        """Apply queued commands; True when the clock must be re-anchored."""
+        reanchor = False
+        while True:
+            try:
+                kind, payload = self._commands.get_nowait()
+            except queue.Empty:
+                return reanchor
+            if kind == "config":
+                version, config = payload
+                self._apply_config(config)
+                self.version = version
+                reanchor = True
+            elif kind == "reset":
+                self._fallen_at = None
+                self.session.reset()
+                reanchor = True
+            elif kind == "push":
+                self.session.push(**payload)
+            elif kind == "play":
+                self.playing = bool(payload)
+                reanchor = True
+            elif kind == "speed":
+                self.speed = float(payload)
+                reanchor = True
+            elif kind == "loop":
+                self.loop_plan = bool(payload)
+            elif kind == "call":
+                payload(self.session)
+                reanchor = True
+            self._publish()
+
+    def _apply_config(self, config: Config) -> None:
+        self._fallen_at = None
+        self.session.set_config(config, backend=config.sim.backend)
+
+    # -- snapshots --------------------------------------------------------------------------------
+    def real_time_factor(self) -> float:
+        w = self._rtf_window
+        if len(w) < 2 or w[-1][0] - w[0][0] < 1e-3:
+            return 0.0
+        return (w[-1][1] - w[0][1]) / (w[-1][0] - w[0][0])
+
+    def _publish(self) -> None:
+        s = self.session
+        backend = s.backend
+        cmd = s.last_command
+        state = s.last_state
+        base_pos = base_wxyz = None
+        joints: dict[str, float] = {}
+        if backend.name == "mujoco":
+            base_pos, base_wxyz = (np.array(v, dtype=float) for v in backend.base_pose())
+            joints = {k: float(v) for k, v in backend.qpos_by_joint().items()}
+        feet = {
+            side: (np.array(state.feet[side], float), float(state.feet_yaw[side]))
+            for side in state.feet
+        }
+        pushes = self._pushes(s, state)
+        now = time.perf_counter()
+        history = self.snapshot.history
+        if now - self._last_history >= HISTORY_DT or not self.playing:
+            history = self._history_window(s)
+            self._last_history = now
+        adjusted: list[Footstep] = []
+        plan = s.plan
+        if plan is not None:
+            adjusted = list(plan.steps[s.steps_completed :])
+            target = s.adjusted_target
+            if target is not None and 0 <= target[0] < len(plan.steps):
+                step = plan.steps[target[0]]
+                adjusted = [a for a in adjusted if a is not step]
+                adjusted.insert(0, Footstep(step.side, np.array(target[1], float), step.yaw))
+        realised = tuple(
+            Footstep(r.side, np.array(r.position, float), 0.0) for r in s.realised_steps()
+        )
+        self.snapshot = Snapshot(
+            t=float(s.t),
+            backend=backend.name,
+            robot=s.config.robot.model,
+            playing=self.playing,
+            speed=self.speed,
+            real_time_factor=self.real_time_factor(),
+            falls=self.falls,
+            fallen=self._fallen_at is not None,
+            done=bool(getattr(cmd, "done", False)),
+            base_position=base_pos,
+            base_wxyz=base_wxyz,
+            joints=joints,
+            com=_arr(state.com),
+            feet=feet,
+            xi=None if cmd is None else _arr(cmd.xi),
+            xi_ref=None if cmd is None else _arr(cmd.xi_ref),
+            xi_adj=None if cmd is None else _arr(cmd.xi_adj),
+            v_cmd=None if cmd is None else _arr(cmd.v_cmd),
+            f_hat=None if cmd is None else _arr(cmd.f_hat),
+            pushes=pushes,
+            adjusted_steps=tuple(adjusted),
+            realised_steps=realised,
+            history=history,
+            version=self.version,
+            step_time_s=float(np.mean(self._step_times)) if self._step_times else 0.0,
+        )
+
+    @staticmethod
+    def _pushes(session: Any, state: Any) -> tuple[tuple[str, np.ndarray, np.ndarray], ...]:
+        """(body, world point, force) of every force applied this tick."""
+        forces = session.external_force()
+        if not forces:
+            return ()
+        poses = session.backend.body_poses() if session.backend.name == "mujoco" else {}
+        links = session.backend.spec.bodies
+        out = []
+        for body, force in forces.items():
+            pose = poses.get(links.get(body, body))
+            point = np.array(pose[0] if pose is not None else state.com, float)
+            out.append((body, point, np.array(force, float)))
+        return tuple(out)
+
+    @staticmethod
+    def _history_window(session: Any) -> dict[str, np.ndarray]:
+        hist = session.history()
+        t = np.asarray(hist["t"])
+        if len(t) == 0:
+            return {}
+        keep = t >= t[-1] - HISTORY_WINDOW_S
+        stride = max(1, int(keep.sum()) // 600)
+        return {k: np.array(np.asarray(v)[keep][::stride]) for k, v in hist.items()}

@@ -1,0 +1,94 @@
+"""Panel plots (uPlot): the preview's VRP and DCM over time (the paper's Fig. 1a) and the live
+measured / reference / adjusted DCM of the simulation."""
+
+from __future__ import annotations
+
+import numpy as np
+import viser
+import viser.uplot as uplot
+
+from dcmviz.dashboard.preview import PreviewData
+
+AXES = ("x", "y", "z")
+VRP_STROKE = "#f08c1e"
+DCM_STROKE = "#1e3cc8"
+MEASURED_STROKE = "#00aaff"
+REF_STROKE = "#444444"
+ADJ_STROKE = "#ff00c8"
+ERROR_STROKE = "#d62728"
+
+
+def _series(label: str, stroke: str, dash: list[float] | None = None) -> uplot.Series:
+    s: dict = {"label": label, "stroke": stroke, "width": 2}
+    if dash:
+        s["dash"] = dash
+    return s  # type: ignore[return-value]
+
+
+def _axes(y_label: str) -> tuple[uplot.Axis, uplot.Axis]:
+    return ({"label": "t [s]", "size": 30}, {"label": y_label, "size": 48})  # type: ignore[return-value]
+
+
+class PreviewPlots:
+    """Three uPlots (x, y, z): VRP v(t) and DCM ξ(t) of the preview, eqs. (13), (16)."""
+
+    def __init__(self, gui: viser.GuiApi) -> None:
+        empty = (np.zeros(2), np.zeros(2), np.zeros(2))
+        self.handles = [
+            gui.add_uplot(
+                empty,
+                (
+                    {"label": "t"},
+                    _series(f"v_{a}", VRP_STROKE),
+                    _series(f"ξ_{a}", DCM_STROKE),
+                ),
+                title=f"preview {a} [m]",
+                axes=_axes(f"{a} [m]"),
+                scales={"x": {"time": False}},  # type: ignore[dict-item]
+                height=150,
+            )
+            for a in AXES
+        ]
+
+    def draw(self, data: PreviewData) -> None:
+        """Replace the data of the three plots."""
+        for i, handle in enumerate(self.handles):
+            handle.data = (data.t, data.vrp[:, i], data.dcm[:, i])
+
+
+class LivePlot:
+    """Measured vs reference vs adjusted DCM along one axis, and the DCM error norm."""
+
+    def __init__(self, gui: viser.GuiApi, axis: str = "y") -> None:
+        self.axis = axis
+        empty = (np.zeros(2),) * 4
+        self.dcm = gui.add_uplot(
+            empty,
+            (
+                {"label": "t"},
+                _series("ξ", MEASURED_STROKE),
+                _series("ξ_ref", REF_STROKE, [6, 4]),
+                _series("ξ_adj", ADJ_STROKE),
+            ),
+            title=f"DCM {axis} [m]",
+            axes=_axes(f"ξ_{axis} [m]"),
+            scales={"x": {"time": False}},  # type: ignore[dict-item]
+            height=160,
+        )
+        self.error = gui.add_uplot(
+            (np.zeros(2), np.zeros(2)),
+            ({"label": "t"}, _series("|ξ − ξ_ref|", ERROR_STROKE)),
+            title="DCM error [m]",
+            axes=_axes("[m]"),
+            scales={"x": {"time": False}},  # type: ignore[dict-item]
+            height=120,
+        )
+
+    def draw(self, history: dict[str, np.ndarray]) -> None:
+        """Plot the history window (arrays of equal length; t plus (N, 3) DCMs and (N,) error)."""
+        t = history.get("t")
+        if t is None or len(t) < 2:
+            return
+        i = AXES.index(self.axis)
+        self.dcm.data = (t, history["xi"][:, i], history["xi_ref"][:, i], history["xi_adj"][:, i])
+        self.error.data = (t, history["dcm_error"])

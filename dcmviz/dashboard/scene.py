@@ -1,0 +1,140 @@
+"""``draw_*`` functions: each re-adds its scene nodes at stable paths, so redrawing is idempotent.
+
+They read state (a :class:`PreviewData`, a :class:`~dcmviz.dashboard.loop.Snapshot`) and never
+compute anything beyond turning it into geometry.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import viser
+
+from dcmviz.dashboard.preview import PreviewData, Sole
+
+SIDE_COLORS = {"left": (70, 130, 230), "right": (225, 80, 80)}
+DCM_COLOR = (30, 60, 200)
+VRP_WAYPOINT_COLOR = (20, 20, 20)
+MEASURED_DCM_COLOR = (0, 170, 255)
+ADJUSTED_DCM_COLOR = (255, 0, 200)
+COMMANDED_VRP_COLOR = (255, 200, 0)
+FORCE_COLOR = (230, 30, 30)
+OBSERVER_COLOR = (30, 170, 60)
+GHOST_COLOR = (255, 0, 200)
+REALISED_COLOR = (60, 60, 60)
+SOLE_THICKNESS_M = 0.006
+NEWTONS_PER_METRE = 100.0  # arrow length scale: 100 N ↔ 1 m
+
+
+def soles_mesh(
+    soles: Sequence[Sole], length: float, width: float, lift: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (8n, 3) and faces (12n, 3) of thin boxes, one per sole."""
+    if not soles:
+        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint32)
+    box_faces = np.array(
+        [
+            [0, 1, 2], [0, 2, 3], [4, 6, 5], [4, 7, 6],  # top, bottom
+            [0, 4, 5], [0, 5, 1], [1, 5, 6], [1, 6, 2],
+            [2, 6, 7], [2, 7, 3], [3, 7, 4], [3, 4, 0],
+        ]
+    )  # fmt: skip
+    verts, faces = [], []
+    for i, sole in enumerate(soles):
+        top = sole.corners(length, width) + [0.0, 0.0, lift + SOLE_THICKNESS_M]
+        bottom = top - [0.0, 0.0, SOLE_THICKNESS_M]
+        verts.append(np.vstack([top, bottom]))
+        faces.append(box_faces + 8 * i)
+    return np.vstack(verts).astype(np.float32), np.vstack(faces).astype(np.uint32)
+
+
+def _draw_soles(
+    scene: viser.SceneApi,
+    name: str,
+    soles: Sequence[Sole],
+    length: float,
+    width: float,
+    color: tuple[int, int, int],
+    opacity: float = 1.0,
+    lift: float = 0.0,
+) -> None:
+    if not soles:
+        scene.add_frame(name, show_axes=False)  # replaces the node: nothing drawn
+        return
+    v, f = soles_mesh(soles, length, width, lift)
+    scene.add_mesh_simple(
+        name, v, f, color=color, opacity=opacity if opacity < 1.0 else None, flat_shading=True
+    )
+
+
+def draw_footsteps(scene: viser.SceneApi, data: PreviewData) -> None:
+    """The planned soles as rectangles, blue left / red right, paler for the standing feet."""
+    for side in ("left", "right"):
+        planned = [s for s in data.soles if s.side == side and s.index >= 0]
+        standing = [s for s in data.soles if s.side == side and s.index < 0]
+        _draw_soles(
+            scene, f"/preview/soles/{side}", planned, data.foot_length, data.foot_width,
+            SIDE_COLORS[side], opacity=0.55,
+        )  # fmt: skip
+        _draw_soles(
+            scene, f"/preview/soles/{side}_start", standing, data.foot_length, data.foot_width,
+            SIDE_COLORS[side], opacity=0.3,
+        )  # fmt: skip
+
+
+def draw_preview(scene: viser.SceneApi, data: PreviewData) -> None:
+    """VRP trajectory coloured by phase kind, its waypoints, and the DCM trajectory (eqs. 13, 16)."""
+    pts, colors = data.vrp_segments()
+    scene.add_line_segments("/preview/vrp", pts, colors, thickness=0.012)
+    scene.add_point_cloud(
+        "/preview/vrp_waypoints",
+        data.waypoints.astype(np.float32),
+        colors=VRP_WAYPOINT_COLOR,
+        point_size=0.025,
+        point_shape="circle",
+    )
+    scene.add_spline_catmull_rom(
+        "/preview/dcm", data.dcm[:: max(1, len(data.dcm) // 400)], color=DCM_COLOR, thickness=0.012
+    )
+    # the ground projection of the DCM helps reading it against the footsteps
+    ground = data.dcm.copy()
+    ground[:, 2] = data.soles[0].position[2] + 0.003 if data.soles else 0.003
+    scene.add_spline_catmull_rom(
+        "/preview/dcm_ground", ground[:: max(1, len(ground) // 400)], color=(150, 160, 220),
+        thickness=0.006,
+    )  # fmt: skip
+
+
+def draw_marker(
+    scene: viser.SceneApi, name: str, position: np.ndarray | None, color: tuple[int, int, int],
+    radius: float = 0.03,
+) -> None:  # fmt: skip
+    """A small sphere at ``position`` (hidden when None)."""
+    if position is None or not np.all(np.isfinite(position)):
+        scene.add_icosphere(name, radius=radius, color=color, visible=False)
+        return
+    scene.add_icosphere(name, radius=radius, color=color, position=tuple(np.asarray(position)))
+
+
+def draw_arrow(
+    scene: viser.SceneApi, name: str, origin: np.ndarray, force: np.ndarray | None,
+    color: tuple[int, int, int],
+) -> None:  # fmt: skip
+    """A force arrow (N) starting at ``origin``; hidden below 0.5 N."""
+    if force is None or float(np.linalg.norm(force)) < 0.5:
+        scene.add_arrows(name, np.zeros((1, 2, 3)), color, visible=False)
+        return
+    tip = np.asarray(origin) + np.asarray(force) / NEWTONS_PER_METRE
+    scene.add_arrows(
+        name, np.array([[origin, tip]]), color, shaft_radius=0.012, head_radius=0.03,
+        head_length=0.06,
+    )  # fmt: skip
+
+
+def draw_step_markers(
+    scene: viser.SceneApi, name: str, soles: Sequence[Sole], length: float, width: float,
+    color: tuple[int, int, int], opacity: float, lift: float,
+) -> None:  # fmt: skip
+    """Adjusted (ghost) or realised footsteps from the simulation."""
+    _draw_soles(scene, name, soles, length, width, color, opacity=opacity, lift=lift)
