@@ -224,6 +224,13 @@ class SweepSettings:
     jobs: int = field(default_factory=lambda: os.cpu_count() or 1)
     body: str = "torso"
     controllers: tuple[str, ...] = tuple(CONTROLLERS)
+    angles_deg: tuple[float, ...] | None = None  # explicit directions instead of ``directions``
+
+    def direction_angles(self) -> list[float]:
+        """Push directions (rad), 0 = +x forward, counter-clockwise."""
+        if self.angles_deg is not None:
+            return [math.radians(a) for a in self.angles_deg]
+        return [2.0 * math.pi * i / self.directions for i in range(self.directions)]
 
 
 def envelope(config: Config, settings: SweepSettings) -> dict[str, Any]:
@@ -241,8 +248,7 @@ def envelope(config: Config, settings: SweepSettings) -> dict[str, Any]:
     for name in settings.controllers:
         cfg = base.replace(control={**base.control.model_dump(), **CONTROLLERS[name]})
         trial = Trial(cfg, settings.backend, start, settings.push_duration_s, end, settings.body)
-        for i in range(settings.directions):
-            direction = 2.0 * math.pi * i / settings.directions
+        for direction in settings.direction_angles():
             jobs.append(
                 (
                     trial,

@@ -1,0 +1,102 @@
+"""Push-recovery sweep: boundary search, the recovery issue's ratio target, outputs, CLI errors."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import pytest
+
+from dcmviz.config import load_preset
+from dcmviz.sweep import SweepSettings, envelope, find_boundary, main, push_window, write_envelope
+
+ROOT = Path(__file__).resolve().parents[1]
+WALK = ROOT / "presets" / "walk_forward.toml"
+
+
+def test_find_boundary_against_known_threshold() -> None:
+    calls: list[float] = []
+
+    def ok(x: float) -> bool:
+        calls.append(x)
+        return x <= 37.3
+
+    b = find_boundary(ok, 150.0, grid=6, iterations=8)
+    assert b.max_ok <= 37.3 < b.first_fail
+    assert b.first_fail - b.max_ok == pytest.approx(25.0 / 2**8)
+    assert b.non_monotone == [] and not b.capped and b.runs == len(calls) == 6 + 8
+
+
+def test_find_boundary_reports_non_monotone_and_cap() -> None:
+    b2 = find_boundary(lambda x: x < 30.0 or 75.0 < x < 85.0, 100.0, grid=5, iterations=4)
+    assert b2.non_monotone == [80.0]  # grid 20, 40, 60, 80, 100: 40 falls, 80 survives
+    assert 20.0 <= b2.max_ok < 30.0 <= b2.first_fail <= 40.0  # the first boundary is reported
+    capped = find_boundary(lambda x: True, 50.0, grid=3, iterations=4)
+    assert capped.capped and capped.max_ok == 50.0
+
+
+def test_push_window_is_mid_single_support() -> None:
+    config = load_preset(WALK)
+    start, t_lift, t_touch = push_window(config, 4, 0.5)
+    g = config.gait
+    # stand phase t_start, then three steps of t_ss + t_ds before the 4th lift-off
+    assert t_lift == pytest.approx(g.t_start + 3 * (g.t_ss + g.t_ds))
+    assert t_touch - t_lift == pytest.approx(g.t_ss)
+    assert start == pytest.approx(t_lift + 0.5 * g.t_ss)
+
+
+def test_step_adjustment_recovers_larger_lateral_impulse(tmp_path: Path) -> None:
+    """Recovery issue: step adjustment ≥ 1.8× the lateral impulse of tracking alone.
+
+    The 4th step swings the right foot, so a −y push (270°) is caught by that foot; a +y push
+    (90°) would need the legs to cross and is only caught one step later (see the report).
+    """
+    settings = SweepSettings(
+        backend="lip",
+        angles_deg=(90.0, 270.0),
+        controllers=("tracking", "step_adjustment"),
+        max_impulse_ns=120.0,
+        grid=4,
+        iterations=4,
+        jobs=2,
+    )
+    result = envelope(load_preset(WALK), settings)
+    assert result["swing_side"] == "right"
+    j = {(r["direction_deg"], r["controller"]): r["max_impulse_ns"] for r in result["rows"]}
+    res = result["resolution_ns"]
+    assert res == pytest.approx(120.0 / 4 / 16)
+    # tracking alone: a point-mass capture estimate gives ~20-30 N·s for Talos (DESIGN.md: 22)
+    assert 15.0 < j[(270.0, "tracking")] < 40.0
+    assert j[(270.0, "step_adjustment")] >= 1.8 * (j[(270.0, "tracking")] + res)
+    assert j[(90.0, "step_adjustment")] >= j[(90.0, "tracking")] - res
+    for r in result["rows"]:
+        assert r["max_force_n"] == pytest.approx(r["max_impulse_ns"] / 0.2)
+
+    paths = write_envelope(result, tmp_path)
+    assert [p.name for p in paths] == ["envelope.json", "envelope.csv", "envelope.png"]
+    rows = list(csv.DictReader(paths[1].open()))
+    assert len(rows) == 4 and {"direction_deg", "controller", "max_impulse_ns"} <= set(rows[0])
+    assert json.loads(paths[0].read_text())["rows"][0]["controller"] in settings.controllers
+    assert paths[2].stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["--phase", "1.5"], "--phase"),
+        (["--directions", "0"], "--directions"),
+        (["--step", "40"], "--step"),
+        (["--controllers", "tracking,magic"], "magic"),
+        (["--sim", "ode"], "--sim"),
+    ],
+)
+def test_bad_input_exits_2(capsys, args, needle) -> None:
+    assert main([str(WALK), *args]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err
+
+
+def test_ramp_test_needs_a_ramped_push(capsys, tmp_path: Path) -> None:
+    assert main([str(WALK), "--ramp-test", "--out", str(tmp_path)]) == 2
+    assert "ramp" in capsys.readouterr().err
