@@ -23,7 +23,6 @@ from dcmviz.config import (
     MAX_PRESET_BYTES,
     Config,
     ConfigError,
-    Push,
     config_from_dict,
     dumps_preset,
     load_preset,
@@ -83,6 +82,7 @@ class PreviewWorker:
         with self._cond:
             self._stop = True
             self._cond.notify_all()
+        self._thread.join(timeout=5.0)
 
     def _run(self) -> None:
         while True:
@@ -362,13 +362,13 @@ class Dashboard:
         d = d / n if n > 1e-9 else np.array([0.0, 1.0, 0.0])
         force = tuple(float(c) for c in magnitude * d)
         duration, ramp = float(self.gui_push_duration.value), float(self.gui_push_ramp.value)
-        spec = get_spec(self.config.robot.model)
+        push = {"start": 0.0, "duration": duration, "force": force, "ramp": ramp, "body": body}
+        data = self.config.to_dict()
+        data["pushes"] = [*data.get("pushes", []), push]
         try:
-            if body not in spec.bodies:
-                raise ValueError(f"body = {body!r}: allowed {', '.join(spec.bodies)}")
-            Push(start=0.0, duration=duration, force=force, ramp=ramp, body=body)
-        except ValueError as err:
-            self.notify(client, "Push refused", str(err).splitlines()[-1], error=True)
+            config_from_dict(data)  # the schema validates a push (and its body) like a preset's
+        except ConfigError as err:
+            self.notify(client, "Push refused", str(err), error=True)
             return False
         self.loop.post("push", {"force": force, "duration": duration, "ramp": ramp, "body": body})
         return True
@@ -658,6 +658,8 @@ class Dashboard:
     # =============================================================================================
     def stop(self) -> None:
         self._render_stop.set()
+        if self._render_thread.is_alive():
+            self._render_thread.join(timeout=5.0)
         self.loop.stop()
         self.preview.stop()
 
