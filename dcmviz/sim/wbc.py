@@ -50,7 +50,7 @@ class Gains:
     kd_stance: float = 10.0  # stance foot: a = -kd v (kills drift)
     k_angular_momentum: float = 5.0  # L̇ = -k L
     k_moment_observer: float = 10.0  # 1/s, external-moment observer gain (0: off)
-    w_force: float = 100.0
+    w_force: float = 1000.0
     w_angular_momentum: float = 0.5
     w_base: float = 3.0
     w_foot: float = 100.0
@@ -281,7 +281,7 @@ class FloatingBaseDynamics(Constraint):
 
 
 class StanceFoot(Constraint):
-    """A supporting foot in contact does not move: J q̈ + J̇ q̇ = -kd J q̇ (else a void row)."""
+    """A supporting foot in contact does not move: J q̈ + J̇ q̇ = -kd J q̇ (else void rows)."""
 
     rows = 6
 
@@ -289,10 +289,10 @@ class StanceFoot(Constraint):
         self.side, self.layout, self.kd = side, layout, kd
 
     def compute(self, ctx, cmd, A, lo, up) -> bool:
-        if not ctx.active[self.side]:
+        if not ctx.active[self.side]:  # a void, always satisfied row (never a 0 = 0 equality)
             A[:] = 0.0
-            lo[:] = up[:] = 0.0
-            return True
+            lo[:], up[:] = -_INF, _INF
+            return False
         A[:, : self.layout.nv] = ctx.sole_jacobian[self.side]
         lo[:] = up[:] = -ctx.sole_drift[self.side] - self.kd * ctx.sole_velocity[self.side]
         return True
@@ -338,9 +338,11 @@ class ContactWrenchCone(Constraint):
         A[:, i : i + 3] = self.C_force @ rot_t
         A[:, i + 3 : i + 6] = self.C_moment @ rot_t
         lo[:] = -_INF
-        up[:] = 0.0
         if ctx.active[self.side]:
+            up[:] = 0.0
             up[4] = -self.min_force
+        else:  # the wrench is bounded to zero: void rows (no degenerate 0 ≤ 0 constraints)
+            up[:] = _INF
         return False
 
 
@@ -424,9 +426,14 @@ class WholeBodyController:
         self._reg = np.full(nx, g.w_qdd_reg)
         for s in SIDES:
             self._reg[lay.wrench[s]] = g.w_wrench_reg / mass**2
+        self._scale = np.ones(nx)
+        self._scale[robot.nv :] = mass
+        self._bounds_lo = np.zeros(nx + self.n_rows)
+        self._bounds_up = np.zeros(nx + self.n_rows)
         self._tau = robot.torque_limit * 0.0
         self.timings = {"qp_build": 0.0, "qp_solve": 0.0}
         self.last: Solution | None = None
+        self.failures = 0  # QPs that failed (previous torques held)
 
     def solve(self, ctx: Context, cmd: WalkerCommand, in_contact: dict[str, bool]) -> Solution:
         """τ for this tick; ``in_contact`` is the *measured* contact of each sole."""
@@ -466,7 +473,16 @@ class WholeBodyController:
                 sense[nx + r.start : nx + r.stop] = 5
             row += con.rows
         t1 = time.perf_counter()
-        x, _, exitflag, _ = daqp.solve(H, c, self._A, up, lo, sense)
+        # solve in scaled variables x = D x' (wrenches in units of m·1 m/s²): H' = D H D, A' = A D
+        d = self._scale
+        self._bounds_lo[:] = lo
+        self._bounds_up[:] = up
+        self._bounds_lo[:nx] /= d
+        self._bounds_up[:nx] /= d
+        x, _, exitflag, _ = daqp.solve(
+            H * np.outer(d, d), c * d, self._A * d, self._bounds_up, self._bounds_lo, sense
+        )
+        x = x * d
         t2 = time.perf_counter()
         self.timings["qp_build"] += t1 - t0
         self.timings["qp_solve"] += t2 - t1
@@ -480,6 +496,7 @@ class WholeBodyController:
             tau = np.clip(tau, -self.robot.torque_limit, self.robot.torque_limit)
             self._tau = tau
         else:
+            self.failures += 1
             qdd = np.zeros(nv)
             wr = {s: np.zeros(6) for s in SIDES}
             tau = self._tau
