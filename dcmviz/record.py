@@ -1,0 +1,464 @@
+"""Rerun recording of a walking session (rerun 0.41 API) to an ``.rrd`` file.
+
+A :class:`Recorder` hooks into :attr:`Session.on_tick` (chaining any callback already there) and
+logs, every ``log_dt_s`` of simulated time on the ``sim_time`` timeline:
+
+* ``plots/x``, ``plots/y``, ``plots/z``: CoM, measured DCM ξ (eq. 1), ξ_ref (eq. 48), ξ_adj
+  (eqs. 33, 49), VRP reference v_ref (eq. 47) and command v_cmd (eqs. 24, 41) per axis;
+  ``plots/dcm_error`` |ξ − ξ_ref|; ``plots/force`` applied and estimated (eq. 45) force;
+* ``world/...``: the same points in 3-D with short trails, the planned DCM/VRP references as line
+  strips (re-logged when a touchdown commits a footstep), footsteps as boxes (planned = nominal,
+  adjusted = the target being adjusted right now, realised = where each foot landed), the applied
+  external force and the estimated force as arrows at the CoM;
+* ``world/robot``: for the MuJoCo backend every URDF link as a transform with its visual meshes
+  (``rr.Asset3D``, logged once as static data); for the point mass a ball and two legs.
+
+Each recorder owns a dedicated :class:`rerun.RecordingStream`, so several recordings can coexist.
+The dashboard's Record toggle calls :meth:`Recorder.start` and :meth:`Recorder.stop`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import uuid
+import xml.etree.ElementTree as ET
+from collections import defaultdict, deque
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import rerun as rr
+
+LOG_DT_S = 0.01  # sim seconds between logged samples
+TRAIL_SAMPLES = 200  # 3-D trails show the last 2 s
+TRAIL_EVERY = 5  # samples between trail updates
+FLUSH_SAMPLES = 200  # samples buffered before they are sent as columns
+FORCE_SCALE_M_PER_N = 0.005  # arrow length per newton
+
+SERIES = ("com", "xi", "xi_ref", "xi_adj", "v_ref", "v_cmd")
+SERIES_COLORS = {
+    "com": (120, 120, 120),
+    "xi": (0, 150, 255),
+    "xi_ref": (40, 40, 40),
+    "xi_adj": (0, 190, 90),
+    "v_ref": (255, 160, 0),
+    "v_cmd": (230, 50, 50),
+}
+FOOT_COLORS = {
+    "planned": (170, 170, 170, 120),
+    "plan": (90, 140, 255, 150),
+    "adjusted": (0, 200, 90, 200),
+    "realised": (230, 120, 0, 220),
+}
+
+
+# ---------------------------------------------------------------------------------------------
+# robot geometry (URDF visual meshes placed by Pinocchio frame poses)
+
+
+@dataclass(frozen=True)
+class Visual:
+    link: str
+    mesh: str  # absolute path
+    translation: np.ndarray
+    rotation: np.ndarray  # (3, 3)
+    scale: np.ndarray
+    color: tuple[int, int, int, int] | None
+
+
+def _rpy(rpy: np.ndarray) -> np.ndarray:
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = (
+        math.cos(r),
+        math.sin(r),
+        math.cos(p),
+        math.sin(p),
+        math.cos(y),
+        math.sin(y),
+    )
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+def urdf_visuals(urdf_path: str, package_root: str) -> list[Visual]:
+    """Visual meshes of every link of a URDF (``package://example-robot-data/robots/`` resolved)."""
+    root = ET.parse(urdf_path).getroot()
+    materials = {}
+    for m in root.findall("material"):
+        c = m.find("color")
+        if c is not None and m.get("name"):
+            materials[m.get("name")] = c.get("rgba")
+    out = []
+    for link in root.iter("link"):
+        for vis in link.findall("visual"):
+            mesh = vis.find("geometry/mesh")
+            if mesh is None:
+                continue
+            filename = mesh.get("filename", "")
+            for prefix in ("package://example-robot-data/robots/", "package://"):
+                if filename.startswith(prefix):
+                    filename = os.path.join(package_root, filename[len(prefix) :])
+                    break
+            if not os.path.isfile(filename):
+                continue
+            origin = vis.find("origin")
+            xyz = np.array(
+                (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split(), float
+            )
+            rpy = np.array(
+                (origin.get("rpy", "0 0 0") if origin is not None else "0 0 0").split(), float
+            )
+            scale = np.array(mesh.get("scale", "1 1 1").split(), float)
+            color = None
+            mat = vis.find("material")
+            if mat is not None:
+                c = mat.find("color")
+                rgba = c.get("rgba") if c is not None else materials.get(mat.get("name", ""))
+                if rgba:
+                    v = [float(x) for x in rgba.split()]
+                    color = tuple(int(round(255 * min(1.0, max(0.0, x)))) for x in v[:4])
+            out.append(Visual(link.get("name"), filename, xyz, _rpy(rpy), scale, color))
+    return out
+
+
+class RobotPoser:
+    """World poses of the URDF links of a MuJoCo-backend robot, from Pinocchio frames."""
+
+    def __init__(self, backend: Any) -> None:
+        import pinocchio as pin
+
+        from dcmviz.sim.robots import _source, robots_dir
+
+        self._pin = pin
+        self.robot = backend.robot
+        self.backend = backend
+        src = _source(self.robot.name)
+        root = robots_dir()
+        visuals = urdf_visuals(os.path.join(root, src.urdf), root)
+        model = self.robot.pin_model
+        self.model, self.data = model, model.createData()
+        self.visuals = [v for v in visuals if model.existFrame(v.link)]
+        self.links = sorted({v.link for v in self.visuals})
+        self.frame_ids = [model.getFrameId(link) for link in self.links]
+
+    def poses(self) -> list[tuple[str, np.ndarray, np.ndarray]]:
+        """(link, translation, rotation matrix) in world for every link with a visual."""
+        q = self.robot.q_pin(self.backend.data.qpos)
+        self._pin.framesForwardKinematics(self.model, self.data, q)
+        out = []
+        for link, fid in zip(self.links, self.frame_ids, strict=True):
+            m = self.data.oMf[fid]
+            out.append((link, np.array(m.translation), np.array(m.rotation)))
+        return out
+
+
+# ---------------------------------------------------------------------------------------------
+# the recorder
+
+
+class Recorder:
+    """Logs a :class:`~dcmviz.session.Session` to an ``.rrd`` file while it runs."""
+
+    def __init__(self, *, log_dt_s: float = LOG_DT_S, meshes: bool = True) -> None:
+        self.log_dt_s = float(log_dt_s)
+        self.meshes = meshes
+        self.stream: rr.RecordingStream | None = None
+        self.path: Path | None = None
+        self.samples = 0
+        self._session = None
+
+    @property
+    def recording(self) -> bool:
+        return self.stream is not None
+
+    # -- lifecycle ------------------------------------------------------------------------------
+    def start(self, session: Any, path: str | Path) -> None:
+        """Open ``path`` (.rrd), log the static scene and chain :meth:`on_tick` into the session."""
+        if self.stream is not None:
+            raise RuntimeError("Recorder.start: already recording; call stop() first")
+        self.path = Path(path)
+        self.stream = rr.RecordingStream("dcmviz", recording_id=str(uuid.uuid4()))
+        self.stream.save(self.path)
+        self._session = session
+        self._previous = session.on_tick
+        self._next_t = -math.inf
+        self._plan_id = None
+        self._n_records = -1
+        self._trail: dict[str, deque] = {k: deque(maxlen=TRAIL_SAMPLES) for k in ("com", "xi")}
+        self.samples = 0
+        self._poser = None
+        self._buf: dict[str, list] = defaultdict(list)
+        self._had_target = False
+        self._log_static(session)
+        previous = self._previous
+
+        def chained(s: Any) -> None:
+            if previous is not None:
+                previous(s)
+            self.on_tick(s)
+
+        self._chained = chained
+        session.on_tick = chained
+
+    def stop(self) -> Path:
+        """Detach from the session, flush and close the file; returns its path."""
+        if self.stream is None:
+            raise RuntimeError("Recorder.stop: not recording")
+        session = self._session
+        if session is not None and session.on_tick is self._chained:
+            session.on_tick = self._previous
+        self._flush()
+        stream, self.stream, self._session = self.stream, None, None
+        stream.flush()
+        stream.disconnect()
+        return self.path
+
+    # -- logging --------------------------------------------------------------------------------
+    def _log_static(self, session: Any) -> None:
+        rec = self.stream
+        rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        for axis in ("x", "y", "z"):
+            rec.log(
+                f"plots/{axis}",
+                rr.SeriesLines(
+                    names=[f"{k} {axis}" for k in SERIES],
+                    colors=[SERIES_COLORS[k] for k in SERIES],
+                ),
+                static=True,
+            )
+        rec.log("plots/dcm_error", rr.SeriesLines(names=["|ξ − ξ_ref| (m)"]), static=True)
+        rec.log(
+            "plots/force",
+            rr.SeriesLines(
+                names=["F_ext x", "F_ext y", "F_ext z", "F̂ x", "F̂ y", "F̂ z"],
+                colors=[(230, 50, 50), (50, 160, 50), (50, 50, 230)] * 2,
+                widths=[2.0, 2.0, 2.0, 1.0, 1.0, 1.0],
+            ),
+            static=True,
+        )
+        rec.log(
+            "world/points",
+            rr.Points3D(
+                np.zeros((len(SERIES), 3)),
+                radii=[0.03, 0.02, 0.015, 0.015, 0.015, 0.02],
+                colors=[SERIES_COLORS[k] for k in SERIES],
+                labels=list(SERIES),
+            ),
+            static=True,
+        )
+        rec.log(
+            "world/forces",
+            rr.Arrows3D(
+                vectors=np.zeros((2, 3)),
+                colors=[(230, 50, 50), (160, 60, 220)],
+                radii=[0.01, 0.008],
+                labels=["F_ext", "F̂"],
+            ),
+            static=True,
+        )
+        rec.log(
+            "world/robot/legs",
+            rr.LineStrips3D(np.zeros((2, 2, 3)), colors=[(90, 90, 90)], radii=0.01),
+            static=True,
+        )
+        spec = session.walker.spec
+        self._half_size = (0.5 * spec.foot_length_m, 0.5 * spec.foot_width_m, 0.004)
+        nominal = session.nominal_plan()
+        rec.log("world/footsteps/planned", self._boxes(nominal.steps, "planned"), static=True)
+        backend = session.backend
+        if getattr(backend, "name", "") == "mujoco" and hasattr(backend, "robot"):
+            try:
+                self._poser = RobotPoser(backend)
+            except Exception:  # noqa: BLE001 - drawing the robot is optional
+                self._poser = None
+            if self._poser is not None and self.meshes:
+                for i, v in enumerate(self._poser.visuals):
+                    entity = f"world/robot/{v.link}/visual_{i}"
+                    rec.log(
+                        entity,
+                        rr.Transform3D(translation=v.translation, mat3x3=v.rotation, scale=v.scale),
+                        static=True,
+                    )
+                    rec.log(
+                        entity,
+                        rr.Asset3D(
+                            path=v.mesh,
+                            media_type=rr.MediaType.STL
+                            if v.mesh.lower().endswith(".stl")
+                            else None,
+                            albedo_factor=v.color or (200, 200, 210, 255),
+                        ),
+                        static=True,
+                    )
+
+    def _boxes(self, steps: Any, kind: str) -> rr.Boxes3D:
+        centers = [
+            np.asarray(s.position, float) + np.array([0, 0, self._half_size[2]]) for s in steps
+        ]
+        return rr.Boxes3D(
+            centers=centers if centers else np.zeros((0, 3)),
+            half_sizes=[self._half_size] * len(centers),
+            rotation_axis_angles=[
+                rr.RotationAxisAngle(axis=(0, 0, 1), radians=float(s.yaw)) for s in steps
+            ],
+            colors=[FOOT_COLORS[kind]] * len(centers),
+            fill_mode=rr.components.FillMode.Solid if kind != "planned" else None,
+        )
+
+    def on_tick(self, session: Any) -> None:
+        """Buffer one decimated sample (called after every tick); rare events are logged now."""
+        cmd = session.last_command
+        t = float(session.t)
+        if self.stream is None or cmd is None or t < self._next_t - 1e-9:
+            return
+        self._next_t = t + self.log_dt_s
+        rec = self.stream
+        state = session.last_state
+        values = {
+            "com": np.asarray(state.com, float),
+            "xi": np.asarray(cmd.xi, float),
+            "xi_ref": np.asarray(cmd.xi_ref, float),
+            "xi_adj": np.asarray(cmd.xi_adj, float),
+            "v_ref": np.asarray(cmd.v_ref, float),
+            "v_cmd": np.asarray(cmd.v_cmd, float),
+        }
+        forces = session.external_force()
+        f_ext = sum((np.asarray(f, float) for f in forces.values()), np.zeros(3))
+        f_hat = np.asarray(cmd.f_hat, float)
+        com = values["com"]
+
+        # per-sample data goes to column buffers, sent in batches (rr.send_columns is far cheaper
+        # than one rr.log per entity and sample)
+        buf = self._buf
+        buf["t"].append(t)
+        points = np.array([values[k] for k in SERIES])
+        for i, axis in enumerate(("x", "y", "z")):
+            buf[f"plots/{axis}"].append(points[:, i])
+        buf["plots/dcm_error"].append(float(np.linalg.norm(cmd.xi - cmd.xi_ref)))
+        buf["plots/force"].append(np.concatenate([f_ext, f_hat]))
+        buf["points"].append(points)
+        buf["arrows"].append(np.array([f_ext, f_hat]) * FORCE_SCALE_M_PER_N)
+        buf["com"].append(com)
+        if self._poser is not None:
+            buf["robot"].append(self._poser.poses())
+        else:
+            buf["legs"].append([np.asarray(state.feet[s], float) for s in ("left", "right")])
+
+        # rare or slow-changing things are logged directly at this instant
+        rec.set_time("sim_time", duration=t)
+        for key in self._trail:
+            self._trail[key].append(values[key])
+        if self.samples % TRAIL_EVERY == 0:
+            for key, trail in self._trail.items():
+                rec.log(
+                    f"world/trails/{key}",
+                    rr.LineStrips3D([np.array(trail)], colors=[SERIES_COLORS[key]]),
+                )
+        plan = session.plan
+        if id(plan) != self._plan_id:  # a touchdown committed a footstep: new references
+            self._plan_id = id(plan)
+            ts = np.linspace(0.0, plan.preview.duration, 400)
+            for name, curve, key in (
+                ("dcm", plan.preview.dcm(ts), "xi_ref"),
+                ("vrp", plan.preview.vrp(ts), "v_ref"),
+            ):
+                rec.log(
+                    f"world/reference/{name}",
+                    rr.LineStrips3D([curve], colors=[SERIES_COLORS[key]]),
+                )
+            rec.log("world/footsteps/plan", self._boxes(plan.steps, "plan"))
+        target = session.adjusted_target
+        if target is not None and self.samples % TRAIL_EVERY == 0:
+            k, position = target
+            rec.log(
+                "world/footsteps/adjusted",
+                self._boxes([plan.steps[k].moved(position)], "adjusted"),
+            )
+        elif target is None and self._had_target:
+            rec.log("world/footsteps/adjusted", rr.Clear(recursive=False))
+        self._had_target = target is not None
+        records = session.walker.records
+        if len(records) != self._n_records:
+            self._n_records = len(records)
+            placed = [_Placed(r.position, 0.0) for r in records]
+            rec.log("world/footsteps/realised", self._boxes(placed, "realised"))
+        self.samples += 1
+        if len(buf["t"]) >= FLUSH_SAMPLES:
+            self._flush()
+
+    def _flush(self) -> None:
+        """Send the buffered samples as columns."""
+        buf = self._buf
+        n = len(buf["t"])
+        if self.stream is None or n == 0:
+            return
+        rec = self.stream
+        index = [rr.TimeColumn("sim_time", duration=np.array(buf["t"]))]
+        for entity in ("plots/x", "plots/y", "plots/z", "plots/force"):
+            rec.send_columns(
+                entity, indexes=index, columns=rr.Scalars.columns(scalars=np.array(buf[entity]))
+            )
+        rec.send_columns(
+            "plots/dcm_error",
+            indexes=index,
+            columns=rr.Scalars.columns(scalars=np.array(buf["plots/dcm_error"])),
+        )
+        k = len(SERIES)
+        rec.send_columns(
+            "world/points",
+            indexes=index,
+            columns=rr.Points3D.columns(positions=np.concatenate(buf["points"])).partition([k] * n),
+        )
+        com = np.array(buf["com"])
+        rec.send_columns(
+            "world/forces",
+            indexes=index,
+            columns=rr.Arrows3D.columns(
+                vectors=np.concatenate(buf["arrows"]), origins=np.repeat(com, 2, axis=0)
+            ).partition([2] * n),
+        )
+        if buf["robot"]:
+            links = [link for link, _, _ in buf["robot"][0]]
+            for j, link in enumerate(links):
+                rec.send_columns(
+                    f"world/robot/{link}",
+                    indexes=index,
+                    columns=rr.Transform3D.columns(
+                        translation=np.array([poses[j][1] for poses in buf["robot"]]),
+                        mat3x3=np.array([poses[j][2] for poses in buf["robot"]]),
+                    ),
+                )
+        if buf["legs"]:
+            strips = np.concatenate(
+                [np.array([[f[0], c], [f[1], c]]) for f, c in zip(buf["legs"], com, strict=True)]
+            )
+            rec.send_columns(
+                "world/robot/legs",
+                indexes=index,
+                columns=rr.LineStrips3D.columns(strips=list(strips)).partition([2] * n),
+            )
+        self._buf = defaultdict(list)
+
+
+@dataclass(frozen=True)
+class _Placed:
+    position: np.ndarray
+    yaw: float
+
+
+def record_session(session: Any, path: str | Path, duration: float, **kwargs: Any) -> Path:
+    """Run ``session`` for ``duration`` s while recording to ``path``; returns the path."""
+    recorder = Recorder(**kwargs)
+    recorder.start(session, path)
+    try:
+        session.run(duration)
+    finally:
+        out = recorder.stop()
+    return out
