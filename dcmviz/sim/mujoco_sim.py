@@ -7,6 +7,7 @@ joint torques, and MuJoCo integrates ``control_dt / physics_dt`` substeps with t
 
 from __future__ import annotations
 
+import copy
 import time
 
 import mujoco
@@ -40,7 +41,7 @@ class MujocoBackend:
         self.control_dt = float(control_dt)
         self.physics_dt = float(physics_dt)
         self.n_substeps = max(1, round(control_dt / physics_dt))
-        self.model = self.robot.mj_model
+        self.model = copy.deepcopy(self.robot.mj_model)  # own timestep, independent of others
         self.model.opt.timestep = self.control_dt / self.n_substeps
         self.data = mujoco.MjData(self.model)
         self.wbc = WholeBodyController(self.robot, gains)
