@@ -7,6 +7,7 @@ snapshots or post commands through the dashboard's loop.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -153,10 +154,10 @@ class Session:
         command = self.walker.step(self.last_state)
         self.last_command = command
         self.last_state = self.backend.step(command)
-        self._record(command, forces)
         if not self.metrics.fell and self.backend.fell():
             self.metrics.fell = True
             self.metrics.fall_time_s = self.last_state.t
+        self._record(command, forces)  # after the fall check: a fall's tick is not a tracking error
         if self.on_tick is not None:
             self.on_tick(self)
         return command
@@ -173,7 +174,8 @@ class Session:
         return self.metrics
 
     def _record(self, cmd: WalkerCommand, forces: dict[str, np.ndarray]) -> None:
-        error = float(np.linalg.norm(cmd.xi - cmd.xi_ref))
+        e = cmd.xi - cmd.xi_ref
+        error = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
         m = self.metrics
         m.ticks += 1
         m.final_dcm_error_m = error

@@ -62,22 +62,24 @@ def project_to_polygon(point: np.ndarray, polygon: np.ndarray) -> tuple[np.ndarr
     px, py = float(point[0]), float(point[1])
     verts = polygon.tolist()
     n = len(verts)
-    inside = True
+    for i in range(n):  # inside test first: the common case costs one pass of cross products
+        ax, ay = verts[i]
+        bx, by = verts[(i + 1) % n]
+        if (bx - ax) * (py - ay) - (by - ay) * (px - ax) < 0.0:
+            break
+    else:
+        return np.array([px, py]), 0.0
     best = (math.inf, px, py)
     for i in range(n):
         ax, ay = verts[i]
         bx, by = verts[(i + 1) % n]
         ex, ey = bx - ax, by - ay
-        rx, ry = px - ax, py - ay
-        if ex * ry - ey * rx < 0.0:
-            inside = False
-        s = min(max((rx * ex + ry * ey) / (ex * ex + ey * ey), 0.0), 1.0)
+        s = ((px - ax) * ex + (py - ay) * ey) / (ex * ex + ey * ey)
+        s = 0.0 if s < 0.0 else (1.0 if s > 1.0 else s)
         cx, cy = ax + s * ex, ay + s * ey
         d2 = (cx - px) ** 2 + (cy - py) ** 2
         if d2 < best[0]:
             best = (d2, cx, cy)
-    if inside:
-        return np.array([px, py]), 0.0
     return np.array([best[1], best[2]]), math.sqrt(best[0])
 
 
@@ -108,6 +110,7 @@ class LipBackend:
         self.applied = self.mass * GRAVITY * E_Z
         self.support_distance = 0.0  # how far the asked VRP lay outside the support polygon
         self.external = {}
+        self._external_sum = np.zeros(3)
         self._fell = False
         self._polygon_key = None
         return self.measure()
@@ -132,9 +135,10 @@ class LipBackend:
         if body not in self.spec.bodies and body not in self.spec.bodies.values():
             raise ValueError(f"body = {body!r}: unknown; allowed: {', '.join(self.spec.bodies)}")
         self.external[body] = force
+        self._external_sum = sum(self.external.values(), np.zeros(3))
 
     def external_force(self) -> np.ndarray:
-        return sum(self.external.values(), np.zeros(3))
+        return self._external_sum
 
     def fell(self) -> bool:
         return self._fell
@@ -161,11 +165,11 @@ class LipBackend:
 
     def step(self, command: WalkerCommand) -> MeasuredState:
         # feet follow the walker's targets exactly; a foot in support lands where it is told
-        for side in SIDES:
+        for side in SIDES:  # targets are fresh or immutable arrays: keep references
             target = command.feet[side]
-            self.feet[side] = np.array(target.position, dtype=float)
-            self.feet_yaw[side] = float(target.yaw)
-            self.in_contact[side] = bool(command.support[side])
+            self.feet[side] = target.position
+            self.feet_yaw[side] = target.yaw
+            self.in_contact[side] = command.support[side]
         m, b = self.mass, self.b
         # the contact VRP of the desired contact force, projected onto the support polygon
         f_c = np.asarray(command.contact_force, dtype=float)
