@@ -172,6 +172,37 @@ def _edit_urdf(src: _RobotSource) -> str:
     return ET.tostring(root, encoding="unicode")
 
 
+def _center_com_over_soles(
+    model: pin.Model, q: np.ndarray, sole_frames: dict[str, int], iterations: int = 30
+) -> np.ndarray:
+    """The posture closest to ``q`` with the CoM above the middle of the soles (x, y) and the
+    soles where they are (flat, on the floor): Gauss-Newton on the legs and base position,
+    e = [log6(oMf_d⁻¹ oMf) per sole; c_xy - s_xy], Δq = -J⁺ e (base orientation kept)."""
+    data = model.createData()
+    q = q.copy()
+    pin.framesForwardKinematics(model, data, q)
+    targets = {s: data.oMf[f].copy() for s, f in sole_frames.items()}
+    middle = np.mean([t.translation[:2] for t in targets.values()], axis=0)
+    cols = np.r_[0:3, 6 : model.nv]  # base translation and joints
+    for _ in range(iterations):
+        pin.framesForwardKinematics(model, data, q)
+        pin.computeJointJacobians(model, data, q)
+        com = pin.centerOfMass(model, data, q)
+        errors, rows = [], []
+        for s, f in sole_frames.items():
+            errors.append(pin.log6(targets[s].actInv(data.oMf[f])).vector)
+            rows.append(pin.getFrameJacobian(model, data, f, pin.LOCAL))
+        errors.append(com[:2] - middle)
+        rows.append(pin.jacobianCenterOfMass(model, data, q)[:2])
+        e, J = np.concatenate(errors), np.vstack(rows)[:, cols]
+        if np.linalg.norm(e) < 1e-10:
+            break
+        dv = np.zeros(model.nv)
+        dv[cols] = -np.linalg.lstsq(J, e, rcond=None)[0]
+        q = pin.integrate(model, q, dv)
+    return q
+
+
 class Robot:
     """A humanoid as a MuJoCo model and a Pinocchio model of the same bodies, plus name maps.
 
@@ -265,7 +296,7 @@ class Robot:
         sole_x = np.mean([data.oMf[f].translation[0] for f in self.sole_frames.values()])
         q[0] -= sole_x  # sole centres at x = 0
         q[2] = -sole_z  # soles on the floor
-        self.q_nominal = q
+        self.q_nominal = q = _center_com_over_soles(pm, q, self.sole_frames)
         pin.framesForwardKinematics(pm, data, q)
         self.mass = float(pin.computeTotalMass(pm))
         self.com_height = float(pin.centerOfMass(pm, data, q)[2])
