@@ -60,7 +60,7 @@ class MujocoBackend:
         self._contact = {s: False for s in SIDES}
         self._contact_force = {s: 0.0 for s in SIDES}
         self._applied = np.zeros(3)
-        self._geom_side = {g: s for s, g in self.robot.sole_geoms.items()}
+        self._sole_geom_ids = np.array(list(self.robot.sole_geoms.values()))
         self.t = 0.0
         self.reset()
 
@@ -102,39 +102,43 @@ class MujocoBackend:
         return self._ctx
 
     def _measure_contacts(self) -> None:
-        """A sole is in contact if it touches the floor; also sums its normal force (N)."""
+        """A sole is in contact if it touches the floor. Also: each sole's normal force (N), the
+        total contact force (world, N) and its moment about the CoM (N m), from MuJoCo's
+        contact forces f = frameᵀ f_local (the frame's first row is the normal, geom1 → geom2)."""
         d, m = self.data, self.model
-        fn = {s: 0.0 for s in SIDES}
-        touching = {s: False for s in SIDES}
-        total = np.zeros(3)
-        moment = np.zeros(3)  # about the CoM
-        com = self._ctx.com
-        wrench = np.zeros(6)
         ncon = d.ncon
-        if ncon:
-            geoms = d.contact.geom[:ncon]
-            frames = d.contact.frame[:ncon]
-            positions = d.contact.pos[:ncon]
+        self._contact = {s: False for s in SIDES}
+        self._contact_force = {s: 0.0 for s in SIDES}
+        self._applied = np.zeros(3)
+        self._contact_moment = np.zeros(3)
+        if ncon == 0:
+            return
+        contact = d.contact
+        geoms = contact.geom[:ncon]
+        local = np.zeros((ncon, 6))
         for i in range(ncon):
-            g1, g2 = int(geoms[i, 0]), int(geoms[i, 1])
-            side = self._geom_side.get(g1) or self._geom_side.get(g2)
-            if side is None:
-                continue
-            touching[side] = True
-            mujoco.mj_contactForce(m, d, i, wrench)
-            fn[side] += wrench[0]
-            # contact frame rows: normal (from geom1 to geom2), tangents; force acts on geom2
-            sign = 1.0 if g2 == self.robot.sole_geoms[side] else -1.0
-            force = sign * (frames[i].reshape(3, 3).T @ wrench[:3])
-            total += force
-            r = positions[i] - com
-            moment[0] += r[1] * force[2] - r[2] * force[1]
-            moment[1] += r[2] * force[0] - r[0] * force[2]
-            moment[2] += r[0] * force[1] - r[1] * force[0]
-        self._contact_force = fn
-        self._contact = touching
-        self._applied = total
-        self._contact_moment = moment
+            mujoco.mj_contactForce(m, d, i, local[i])
+        # the force acts on geom2; a sole listed as geom1 receives its opposite
+        left, right = self._sole_geom_ids
+        on_left = (geoms == left).any(axis=1)
+        on_right = (geoms == right).any(axis=1)
+        soles = on_left | on_right
+        if not soles.any():
+            return
+        frames = contact.frame[:ncon][soles].reshape(-1, 3, 3)
+        forces = (frames.transpose(0, 2, 1) @ local[soles, :3, None])[:, :, 0]
+        second = geoms[soles, 1]
+        forces[(second != left) & (second != right)] *= -1.0
+        arms = contact.pos[:ncon][soles] - self._ctx.com
+        self._applied = forces.sum(axis=0)
+        moment = (
+            arms[:, [1, 2, 0]] * forces[:, [2, 0, 1]] - arms[:, [2, 0, 1]] * forces[:, [1, 2, 0]]
+        )
+        self._contact_moment = moment.sum(axis=0)  # Σ r × f
+        for side, mine in (("left", on_left), ("right", on_right)):
+            if mine.any():
+                self._contact[side] = True
+                self._contact_force[side] = float(local[mine, 0].sum())
 
     def measure(self) -> MeasuredState:
         """CoM, CoM velocity (Pinocchio on the simulated state), sole poses, measured contact.

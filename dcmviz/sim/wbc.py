@@ -103,7 +103,14 @@ class Kinematics:
         pin.computeCentroidalMomentum(m, d, q, v)
         pin.forwardKinematics(m, d, q, v, self._zero)
         pin.updateFramePlacements(m, d)
-        rot = d.oMi[1].rotation.copy()
+        x, y, z, w = q[3:7]  # base rotation from the unit quaternion (faster than data.oMi[1])
+        rot = np.array(
+            [
+                [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+            ]
+        )
         ctx = Context(
             q=q,
             v=v,
