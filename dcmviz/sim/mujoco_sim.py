@@ -225,6 +225,16 @@ class MujocoBackend:
         return {n: (d.xpos[i].copy(), d.xquat[i].copy()) for n, i in self._body_ids.items()}
 
     @property
+    def external_moment(self) -> np.ndarray:
+        """Estimated external moment about the CoM (N m, world), :class:`MomentObserver`.
+
+        The feet counter it by moving the CoP by δ = (τ̂_y, -τ̂_x)/f_z from the VRP. A walker that
+        shifts its VRP and DCM references by (-τ̂_y, τ̂_x, 0)/(m g) on top of eqs. (47)–(49) keeps
+        the CoP where it planned it (tested: the 15 % torso tug of war then holds through the
+        pull). Not part of the backend interface (MeasuredState) yet."""
+        return self._ctx.external_moment.copy()
+
+    @property
     def contact_forces(self) -> dict[str, float]:
         """Measured normal force under each sole, N."""
         return dict(self._contact_force)
