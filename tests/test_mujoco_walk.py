@@ -169,3 +169,25 @@ def test_tug_of_war_needs_the_observer():
     force = 0.10 * 90.27 * GRAVITY
     assert _tug_of_war(force, observer=True)
     assert not _tug_of_war(force, observer=False)
+
+
+@pytest.mark.slow
+def test_a_hard_push_is_a_fall_and_reset_stands_again():
+    backend = MujocoBackend("talos")
+    state = backend.reset()
+    xi_d = state.com.copy()
+    feet = {s: p.copy() for s, p in state.feet.items()}
+    backend.set_external_force("torso", np.array([0.0, 600.0, 0.0]))
+    fell = False
+    for _ in range(int(3.0 / backend.control_dt)):
+        state = backend.step(balance_command(backend, state, xi_d, feet))
+        if backend.fell():
+            fell = True
+            break
+    assert fell
+    state = backend.reset()
+    assert state.t == 0.0 and not backend.fell()
+    np.testing.assert_allclose(state.com_velocity, 0.0, atol=1e-9)
+    for _ in range(int(1.0 / backend.control_dt)):  # the push was cleared by reset
+        state = backend.step(balance_command(backend, state, xi_d, feet))
+    assert not backend.fell()

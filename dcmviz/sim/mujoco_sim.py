@@ -71,6 +71,7 @@ class MujocoBackend:
         self.data.qpos[:] = self.robot.qpos_mj(self.robot.q_nominal)
         self.data.xfrc_applied[:] = 0.0
         mujoco.mj_forward(self.model, self.data)
+        self._upper_bodies = np.flatnonzero(self.data.xpos[:, 2] > 0.25)
         self.t = 0.0
         self._observer_fresh = True
         self.wbc._tau = np.zeros(self.robot.nu)
@@ -198,22 +199,25 @@ class MujocoBackend:
         self.data.xfrc_applied[:] = 0.0
 
     def fell(self) -> bool:
-        """Base below 55 % of its nominal height above the soles, or tilted more than 45°."""
+        """Base below 55 % of its nominal height above the soles, tilted more than 45°, or a
+        body that stands ≥ 0.25 m high in the nominal posture (knee, hip, torso, arm) within
+        0.08 m of the floor under the soles (only the soles collide, so this stands in for a
+        non-foot contact)."""
         d = self.data
-        base_z = d.qpos[2] - min(d.site_xpos[self.robot.sole_sites[s]][2] for s in SIDES)
+        floor = min(d.site_xpos[self.robot.sole_sites[s]][2] for s in SIDES)
+        base_z = d.qpos[2] - floor
         nominal = self.robot.q_nominal[2]
-        up = d.xmat[1].reshape(3, 3)[2, 2]  # cos(tilt) of the root body
-        return bool(
-            base_z < 0.55 * nominal or up < np.cos(np.radians(45.0)) or d.qpos[2] < 0.55 * nominal
-        )
+        up = d.xmat[1][8]  # cos(tilt) of the root body
+        low = d.xpos[self._upper_bodies, 2].min() - floor < 0.08
+        return bool(base_z < 0.55 * nominal or up < np.cos(np.radians(45.0)) or low)
 
     # --- drawing / recording -------------------------------------------------------------
     def qpos_by_joint(self) -> dict[str, float]:
-        """Angle of every actuated joint, rad (locked upper-body joints are at their nominal)."""
-        return {
-            j: float(self.data.qpos[a])
-            for j, a in zip(self.robot.joint_names, self.robot.qpos_adr, strict=True)
-        }
+        """Angle (rad) of every URDF joint: the simulated legs and the locked upper body."""
+        angles = dict(self.robot.locked_joints)
+        for joint, adr in zip(self.robot.joint_names, self.robot.qpos_adr, strict=True):
+            angles[joint] = float(self.data.qpos[adr])
+        return angles
 
     def base_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """Base position (m) and orientation quaternion (w, x, y, z)."""

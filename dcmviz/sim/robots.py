@@ -122,8 +122,10 @@ def _rpy_to_matrix(rpy: np.ndarray) -> np.ndarray:
     return pin.rpy.rpyToMatrix(*rpy)
 
 
-def _edit_urdf(src: _RobotSource) -> str:
-    """The URDF text with the upper body locked, soles added and geometry removed."""
+def _edit_urdf(src: _RobotSource, locked: dict[str, float] | None = None) -> str:
+    """The URDF text with the upper body locked, soles added and geometry removed.
+
+    ``locked`` (if given) receives the name and angle (rad) of every joint that was locked."""
     tree = ET.parse(os.path.join(robots_dir(), src.urdf))
     root = tree.getroot()
     for link in root.findall("link"):
@@ -138,6 +140,8 @@ def _edit_urdf(src: _RobotSource) -> str:
         name = joint.get("name")
         if jtype in ("revolute", "continuous", "prismatic") and name not in src.legs:
             angle = src.nominal.get(name, 0.0)
+            if locked is not None:
+                locked[name] = angle
             origin = joint.find("origin")
             if origin is None:
                 origin = ET.SubElement(joint, "origin", xyz="0 0 0", rpy="0 0 0")
@@ -214,7 +218,8 @@ class Robot:
         self.spec: RobotSpec = get_spec(name)
         self.name = name
         src = _source(name)
-        urdf = _edit_urdf(src)
+        self.locked_joints: dict[str, float] = {}  # upper-body joint -> locked angle, rad
+        urdf = _edit_urdf(src, self.locked_joints)
         self.urdf_text = urdf
 
         # --- Pinocchio ---------------------------------------------------------------------
