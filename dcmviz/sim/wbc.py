@@ -278,7 +278,9 @@ class FloatingBaseDynamics(Constraint):
     def __init__(self, layout: Layout) -> None:
         self.layout = layout
 
-    def compute(self, ctx, cmd, A, lo, up) -> bool:
+    def compute(
+        self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
+    ) -> bool:
         nv = self.layout.nv
         A[:, :nv] = ctx.M[:6]
         for s in SIDES:
@@ -295,7 +297,9 @@ class StanceFoot(Constraint):
     def __init__(self, side: str, layout: Layout, kd: float) -> None:
         self.side, self.layout, self.kd = side, layout, kd
 
-    def compute(self, ctx, cmd, A, lo, up) -> bool:
+    def compute(
+        self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
+    ) -> bool:
         if not ctx.active[self.side]:  # a void, always satisfied row (never a 0 = 0 equality)
             A[:] = 0.0
             lo[:], up[:] = -_INF, _INF
@@ -339,7 +343,9 @@ class ContactWrenchCone(Constraint):
         self.C_force, self.C_moment = self.C[:, :3].copy(), self.C[:, 3:].copy()
         self.min_force = gains.min_normal_force
 
-    def compute(self, ctx, cmd, A, lo, up) -> bool:
+    def compute(
+        self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
+    ) -> bool:
         rot_t = ctx.sole_rotation[self.side].T
         i = self.layout.wrench[self.side].start
         A[:, i : i + 3] = self.C_force @ rot_t
@@ -360,7 +366,9 @@ class TorqueLimits(Constraint):
         self.layout, self.limit = layout, robot.torque_limit
         self.rows = robot.nu
 
-    def compute(self, ctx, cmd, A, lo, up) -> bool:
+    def compute(
+        self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
+    ) -> bool:
         A[:, : self.layout.nv] = ctx.M[6:]
         for s in SIDES:
             A[:, self.layout.wrench[s]] = -ctx.sole_jacobian[s][:, 6:].T
@@ -479,16 +487,15 @@ class WholeBodyController:
             if eq:
                 sense[nx + r.start : nx + r.stop] = 5
             row += con.rows
-        t1 = time.perf_counter()
         # solve in scaled variables x = D x' (wrenches in units of m·1 m/s²): H' = D H D, A' = A D
         d = self._scale
         self._bounds_lo[:] = lo
         self._bounds_up[:] = up
         self._bounds_lo[:nx] /= d
         self._bounds_up[:nx] /= d
-        x, _, exitflag, _ = daqp.solve(
-            H * np.outer(d, d), c * d, self._A * d, self._bounds_up, self._bounds_lo, sense
-        )
+        H_s, c_s, A_s = H * np.outer(d, d), c * d, self._A * d
+        t1 = time.perf_counter()
+        x, _, exitflag, _ = daqp.solve(H_s, c_s, A_s, self._bounds_up, self._bounds_lo, sense)
         x = x * d
         t2 = time.perf_counter()
         self.timings["qp_build"] += t1 - t0
