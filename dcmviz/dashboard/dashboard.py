@@ -230,6 +230,12 @@ class Dashboard:
             )
             bodies = tuple(get_spec(self.config.robot.model).bodies)
             self.gui_push_body = gui.add_dropdown("body", bodies, initial_value=bodies[0])
+            self.push_handles = {
+                "direction": self.gui_push_direction,
+                "magnitude": self.gui_push_magnitude,
+                "duration": self.gui_push_duration,
+                "ramp": self.gui_push_ramp,
+            }
             self.gui_push = gui.add_button("Push", color="red", icon=viser.Icon.HAND_STOP)
             self.gui_push.on_click(lambda event: self.on_push(event.client))
             gui.add_markdown(
@@ -339,7 +345,9 @@ class Dashboard:
         """The current config as TOML, sent to the client as a download."""
         text = dumps_preset(self.config).encode("utf-8")
         if client is not None:
-            client.send_file_download(_slug(self.config.name) + ".toml", text)
+            client.send_file_download(
+                _slug(self.config.name) + ".toml", text, save_immediately=True
+            )
         return text
 
     def on_push(self, client: viser.ClientHandle | None = None) -> bool:
@@ -399,7 +407,7 @@ class Dashboard:
         time.sleep(0.05)  # let the simulation thread detach the capture
         data = capture.finish()
         if client is not None:
-            client.send_file_download(_slug(self.config.name) + ".rrd", data)
+            client.send_file_download(_slug(self.config.name) + ".rrd", data, save_immediately=True)
         self.notify(client, "Recording ready", f"{capture.samples} samples, {len(data)} bytes")
         return data
 

@@ -80,6 +80,7 @@ class SimLoop:
         self.playing = True
         self.speed = 1.0
         self.falls = 0
+        self.resets = 0  # reset commands handled (tests and the status line watch it)
         self.version = 0
         self.snapshot = Snapshot()
         self._commands: queue.Queue[tuple[str, Any]] = queue.Queue()
@@ -204,6 +205,7 @@ class SimLoop:
             elif kind == "reset":
                 self._fallen_at = None
                 self.session.reset()
+                self.resets += 1
                 reanchor = True
             elif kind == "push":
                 self.session.push(**payload)

@@ -1,0 +1,196 @@
+"""End-to-end: the dashboard in a real headless Chromium (Debian ``chromium`` + Playwright).
+
+One server (point-mass backend, for speed) and one browser for the whole module.  Screenshots
+go to ``$DCMVIZ_SCREENSHOTS`` (default: a pytest tmp dir).
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.browser
+
+viser = pytest.importorskip("viser")
+sync_api = pytest.importorskip("playwright.sync_api")
+
+from dcmviz.config import Config, loads_preset  # noqa: E402
+from dcmviz.dashboard import Dashboard  # noqa: E402
+
+CHROMIUM = "/usr/bin/chromium"
+ARGS = [
+    "--no-sandbox",
+    "--headless",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-component-update",
+    "--disable-sync",
+]
+PRESETS = Path(__file__).resolve().parents[1] / "presets"
+
+if not os.path.exists(CHROMIUM):
+    pytest.skip("Debian chromium is not installed", allow_module_level=True)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_for(predicate, timeout: float = 10.0, dt: float = 0.05) -> bool:
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        if predicate():
+            return True
+        time.sleep(dt)
+    return False
+
+
+@pytest.fixture(scope="module")
+def shots(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    env = os.environ.get("DCMVIZ_SCREENSHOTS")
+    path = Path(env) if env else tmp_path_factory.mktemp("screenshots")
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+@pytest.fixture(scope="module")
+def app() -> Iterator[tuple[Dashboard, str]]:
+    port = free_port()
+    server = viser.ViserServer(host="127.0.0.1", port=port, verbose=False)
+    config = Config().replace(sim={"backend": "lip"})
+    dashboard = Dashboard(server, config, presets_dir=PRESETS)
+    yield dashboard, f"http://127.0.0.1:{server.get_port()}"
+    dashboard.stop()
+    server.stop()
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator:
+    with sync_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        yield b
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def page(browser, app):
+    dashboard, url = app
+    page = browser.new_page(viewport={"width": 1200, "height": 760}, accept_downloads=True)
+    page.goto(url)
+    page.get_by_text("T_ss [s]").wait_for(timeout=30_000)
+    time.sleep(1.0)  # first scene frames
+    yield page
+    page.close()
+
+
+def number_input(page, dashboard: Dashboard, key: tuple[str, str]):
+    """The number box next to a slider (the slider root carries the handle's uuid)."""
+    handle = dashboard.push_handles[key[1]] if key[0] == "push" else dashboard.controls.handles[key]
+    uuid = handle._impl.uuid
+    return (
+        page.locator(f"[id='{uuid}']").locator("xpath=..").locator("input:not([type=hidden])").first
+    )
+
+
+def pixels(path: Path) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(path).convert("RGB"), dtype=np.int16)
+
+
+def test_slider_changes_preview(page, app, shots: Path) -> None:
+    dashboard, _ = app
+    page.screenshot(path=shots / "01_loaded.png")
+    version = dashboard.version
+    box = number_input(page, dashboard, ("gait", "n_steps"))
+    box.fill("14")
+    box.press("Enter")
+    assert wait_for(lambda: dashboard.config.gait.n_steps == 14)
+    assert dashboard.preview.wait(version + 1)
+    assert len([s for s in dashboard.preview.data.soles if s.index >= 0]) == 14
+    time.sleep(1.0)
+    page.screenshot(path=shots / "02_n_steps_14.png")
+    diff = np.abs(pixels(shots / "01_loaded.png") - pixels(shots / "02_n_steps_14.png"))
+    assert (diff.sum(axis=2) > 30).mean() > 0.001  # the footsteps and preview redrawn
+
+
+def test_bad_typed_value_reverts(page, app, shots: Path) -> None:
+    dashboard, _ = app
+    before = dashboard.config
+    box = number_input(page, dashboard, ("gait", "t_ss"))
+    box.fill("0.05")
+    box.press("Enter")
+    assert wait_for(lambda: dashboard.notifications and "t_ss" in dashboard.notifications[-1][1])
+    assert dashboard.config == before
+    assert wait_for(lambda: box.input_value() == str(before.gait.t_ss))
+    page.get_by_text("Invalid value").first.wait_for(timeout=5_000)
+    page.screenshot(path=shots / "03_invalid_value.png")
+
+
+def test_push_raises_and_recovers_dcm_error(page, app, shots: Path) -> None:
+    dashboard, _ = app
+    page.get_by_role("tab", name="Simulate").click()
+    resets = dashboard.loop.resets
+    page.get_by_role("button", name="Reset").click()  # a fresh walk: no plan-end loop inside
+    assert wait_for(lambda: dashboard.loop.resets == resets + 1, timeout=5)
+    assert wait_for(lambda: dashboard.loop.session.t > 1.2, timeout=15)
+    falls = dashboard.loop.falls
+    magnitude = number_input(page, dashboard, ("push", "magnitude"))
+    magnitude.fill("80")
+    magnitude.press("Enter")
+    assert wait_for(lambda: dashboard.gui_push_magnitude.value == 80.0)
+    session = dashboard.loop.session
+    n_pushes = len(session.pushes)
+    page.get_by_role("button", name="Push", exact=True).click()
+    assert wait_for(lambda: len(session.pushes) == n_pushes + 1, timeout=5)
+    t_push = session.pushes[-1].start
+    assert wait_for(lambda: session.t > t_push + 0.3, timeout=10)
+    page.screenshot(path=shots / "04_push.png")
+    assert wait_for(lambda: session.t > t_push + 3.0, timeout=20)
+    history = session.history()
+    t, error = history["t"], history["dcm_error"]
+    before = error[(t > t_push - 0.5) & (t < t_push)]
+    after = error[(t >= t_push) & (t < t_push + 3.0)]
+    peak = after.max()
+    assert peak > max(0.01, 3 * before.max())  # the push shows in the DCM error ...
+    assert after[-1] < 0.3 * peak  # ... and the walker recovers
+    assert dashboard.loop.falls == falls
+
+
+def test_second_tab_sees_same_session(browser, page, app) -> None:
+    dashboard, url = app
+    other = browser.new_page(viewport={"width": 900, "height": 600})
+    other.goto(url)
+    other.get_by_text("T_ss [s]").wait_for(timeout=30_000)
+    box = number_input(other, dashboard, ("gait", "n_steps"))
+    assert box.input_value() == "14"  # the state the first tab set
+    box.fill("12")
+    box.press("Enter")
+    assert wait_for(lambda: dashboard.config.gait.n_steps == 12)
+    assert wait_for(
+        lambda: number_input(page, dashboard, ("gait", "n_steps")).input_value() == "12"
+    )
+    other.close()
+    t = dashboard.loop.session.t
+    assert wait_for(lambda: dashboard.loop.session.t > t + 0.3)  # still running for the others
+
+
+def test_export_preset_loads_back(page, app, shots: Path) -> None:
+    dashboard, _ = app
+    page.get_by_role("tab", name="Presets").click()
+    with page.expect_download(timeout=10_000) as info:
+        page.get_by_role("button", name="Export preset").click()
+    path = info.value.path()
+    config = loads_preset(Path(path).read_text())
+    assert config == dashboard.config
+    page.screenshot(path=shots / "05_presets.png")
