@@ -157,3 +157,24 @@ def test_failed_qp_holds_the_last_torques():
     )
     assert good.ok and not bad.ok
     np.testing.assert_array_equal(bad.tau, good.tau)
+
+
+def test_joint_limit_bounds_keep_a_joint_inside_its_range():
+    """Opt-in joint-range bounds: a knee moving fast towards its stop is decelerated,
+    q + q̇ T + ½ q̈ T² ≥ q_lo + margin."""
+    robot = load_robot("talos")
+    gains = Gains(joint_limits=True)
+    wbc = WholeBodyController(robot, gains)
+    q, v = _state(robot)
+    knee = robot.joint_names.index("leg_left_4_joint")
+    q[7 + knee] = 0.1
+    v[6 + knee] = -3.0  # rad/s towards the stop at 0
+    ctx = wbc.kinematics.context(q, v)
+    cmd = _command(
+        robot, {"left": True, "right": True}, robot.mass * GRAVITY * E_Z, _feet(robot, q)
+    )
+    sol = wbc.solve(ctx, cmd, {"left": False, "right": True})
+    assert sol.ok
+    T = gains.joint_limit_horizon
+    ahead = q[7 + knee] + v[6 + knee] * T + 0.5 * sol.qdd[6 + knee] * T * T
+    assert ahead >= gains.joint_limit_margin - 1e-6
