@@ -60,7 +60,7 @@ class MujocoBackend:
         self._contact = {s: False for s in SIDES}
         self._contact_force = {s: 0.0 for s in SIDES}
         self._applied = np.zeros(3)
-        self._sole_geom_ids = np.array(list(self.robot.sole_geoms.values()))
+        self._sole_bodies = [self.model.geom_bodyid[self.robot.sole_geoms[s]] for s in SIDES]
         self.t = 0.0
         self.reset()
 
@@ -103,43 +103,16 @@ class MujocoBackend:
         return self._ctx
 
     def _measure_contacts(self) -> None:
-        """A sole is in contact if it touches the floor. Also: each sole's normal force (N), the
-        total contact force (world, N) and its moment about the CoM (N m), from MuJoCo's
-        contact forces f = frameᵀ f_local (the frame's first row is the normal, geom1 → geom2)."""
-        d, m = self.data, self.model
-        ncon = d.ncon
-        self._contact = {s: False for s in SIDES}
-        self._contact_force = {s: 0.0 for s in SIDES}
-        self._applied = np.zeros(3)
-        self._contact_moment = np.zeros(3)
-        if ncon == 0:
-            return
-        contact = d.contact
-        geoms = contact.geom[:ncon]
-        local = np.zeros((ncon, 6))
-        for i in range(ncon):
-            mujoco.mj_contactForce(m, d, i, local[i])
-        # the force acts on geom2; a sole listed as geom1 receives its opposite
-        left, right = self._sole_geom_ids
-        on_left = (geoms == left).any(axis=1)
-        on_right = (geoms == right).any(axis=1)
-        soles = on_left | on_right
-        if not soles.any():
-            return
-        frames = contact.frame[:ncon][soles].reshape(-1, 3, 3)
-        forces = (frames.transpose(0, 2, 1) @ local[soles, :3, None])[:, :, 0]
-        second = geoms[soles, 1]
-        forces[(second != left) & (second != right)] *= -1.0
-        arms = contact.pos[:ncon][soles] - self._ctx.com
-        self._applied = forces.sum(axis=0)
-        moment = (
-            arms[:, [1, 2, 0]] * forces[:, [2, 0, 1]] - arms[:, [2, 0, 1]] * forces[:, [1, 2, 0]]
-        )
-        self._contact_moment = moment.sum(axis=0)  # Σ r × f
-        for side, mine in (("left", on_left), ("right", on_right)):
-            if mine.any():
-                self._contact[side] = True
-                self._contact_force[side] = float(local[mine, 0].sum())
+        """Contact wrenches of the soles from MuJoCo (``cfrc_ext`` after ``mj_rnePostConstraint``:
+        [τ; f] of each body's external forces about the robot's CoM, world axes): each sole's
+        normal force (N) and contact (> 0.1 N), the total contact force (N) and its moment about
+        the CoM (N m). Pushes act on other bodies and are not included."""
+        mujoco.mj_rnePostConstraint(self.model, self.data)
+        wrenches = self.data.cfrc_ext[self._sole_bodies]
+        self._applied = wrenches[:, 3:].sum(axis=0)
+        self._contact_moment = wrenches[:, :3].sum(axis=0)
+        self._contact_force = {s: float(wrenches[i, 5]) for i, s in enumerate(SIDES)}
+        self._contact = {s: self._contact_force[s] > 0.1 for s in SIDES}
 
     def measure(self) -> MeasuredState:
         """CoM, CoM velocity (Pinocchio on the simulated state), sole poses, measured contact.
