@@ -145,6 +145,7 @@ class Kinematics:
 
 class Task:
     weight: float = 1.0
+    constant_gram: np.ndarray | None = None  # AᵀA if it does not depend on the state
 
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray] | None:
         raise NotImplementedError
@@ -168,6 +169,7 @@ class ContactForceTask(Task):
         for s in SIDES:
             self.A[:, layout.wrench[s].start : layout.wrench[s].start + 3] = np.eye(3) / mass
         self.mass = mass
+        self.constant_gram = self.A.T @ self.A
 
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
         return self.A, np.asarray(cmd.contact_force, dtype=float) / self.mass
@@ -203,6 +205,8 @@ class BaseOrientationTask(Task):
     def __init__(self, layout: Layout, kp: float, kd: float, weight: float) -> None:
         self.kp, self.kd, self.weight = kp, kd, weight
         self.A = np.zeros((3, layout.nx))
+        self.constant_gram = np.zeros((layout.nx, layout.nx))
+        self.constant_gram[3:6, 3:6] = np.eye(3)  # A = [0 R 0]: AᵀA = RᵀR = I
 
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
         y_l, y_r = cmd.feet["left"].yaw, cmd.feet["right"].yaw
@@ -256,6 +260,7 @@ class PostureTask(Task):
         self.A = np.zeros((robot.nu, layout.nx))
         self.A[:, 6 : layout.nv] = np.eye(robot.nu)
         self.q_nominal = robot.q_nominal[7:].copy()
+        self.constant_gram = self.A.T @ self.A
 
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
         return self.A, self.kp * (self.q_nominal - ctx.q[7:]) - self.kd * ctx.v[6:]
@@ -478,6 +483,10 @@ class WholeBodyController:
         self._reg = np.full(nx, g.w_qdd_reg)
         for s in SIDES:
             self._reg[lay.wrench[s]] = g.w_wrench_reg / mass**2
+        self._H_constant = np.diag(self._reg)  # regularisation + state-independent AᵀA
+        for task in self.tasks:
+            if task.constant_gram is not None:
+                self._H_constant += task.weight * task.constant_gram
         self._scale = np.ones(nx)
         self._scale[robot.nv :] = mass
         self._bounds_lo = np.zeros(nx + self.n_rows)
@@ -494,7 +503,7 @@ class WholeBodyController:
         nx, nv = lay.nx, lay.nv
         for s in SIDES:
             ctx.active[s] = bool(in_contact[s] and cmd.support[s])
-        H = np.diag(self._reg)
+        H = self._H_constant.copy()
         c = np.zeros(nx)
         for task in self.tasks:
             out = task.compute(ctx, cmd)
@@ -502,7 +511,8 @@ class WholeBodyController:
                 continue
             A, b = out
             wA = task.weight * A.T
-            H += wA @ A
+            if task.constant_gram is None:
+                H += wA @ A
             c -= wA @ b
         lo, up, sense = self._lo, self._up, self._sense
         lo[:nv], up[:nv] = -_INF, _INF
@@ -516,8 +526,7 @@ class WholeBodyController:
                 sense[sl] = 5
         row = 0
         for con in self.constraints:
-            r = slice(row, row + con.rows)
-            self._A[r] = 0.0
+            r = slice(row, row + con.rows)  # each constraint rewrites the same entries
             eq = con.compute(
                 ctx, cmd, self._A[r], lo[nx + r.start : nx + r.stop], up[nx + r.start : nx + r.stop]
             )
