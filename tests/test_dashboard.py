@@ -204,13 +204,13 @@ def test_fall_notifies_and_resets() -> None:
 
 def test_record_returns_rerun_bytes(dash: Dashboard) -> None:
     assert dash.on_record(True, None) is None
-    drain(dash)
+    assert dash.loop.session.on_tick is not None
     for _ in range(50):
         dash.loop.session.step()
     data = dash.on_record(False, None)
-    drain(dash)
     assert data is not None and len(data) > 1000 and data[:4] == b"RRF2"
     assert dash.loop.session.on_tick is None
+    assert dash.notifications[-1][0] == "Recording ready"
 
 
 def test_preview_data_matches_plan() -> None:

@@ -10,6 +10,8 @@ config) → preview worker (samples + draws the plan) and simulation loop (reset
 from __future__ import annotations
 
 import math
+import shutil
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -33,8 +35,8 @@ from dcmviz.dashboard.gui import GEOMETRY_FIELDS, Controls, parse_value
 from dcmviz.dashboard.loop import SimLoop, Snapshot
 from dcmviz.dashboard.plots import LivePlot, PreviewPlots
 from dcmviz.dashboard.preview import PHASE_COLORS, PreviewData, Sole, preview_data
-from dcmviz.dashboard.recording import RerunCapture
 from dcmviz.gait import GaitPlan, plan_footsteps, plan_from_config
+from dcmviz.record import Recorder
 from dcmviz.sim.specs import get_spec
 
 RENDER_FPS = 30.0
@@ -57,6 +59,7 @@ class PreviewWorker:
         self._pending: tuple[int, GaitPlan, Config, float] | None = None
         self.drawn_version = -1
         self.latency_s: dict[int, float] = {}  # version → submit-to-drawn seconds
+        self.cpu_s: dict[int, float] = {}  # version → CPU seconds of this thread to draw it
         self.data: PreviewData | None = None
         self._thread = threading.Thread(target=self._run, name="dcmviz-preview", daemon=True)
         self._stop = False
@@ -93,6 +96,7 @@ class PreviewWorker:
                     return
                 version, plan, config, t_submit = self._pending
                 self._pending = None
+            cpu0 = time.thread_time()
             try:
                 self.data = self.dashboard.draw_plan(plan, config)
             except Exception as err:  # noqa: BLE001 - a drawing bug must not stop the worker
@@ -100,6 +104,7 @@ class PreviewWorker:
             with self._cond:
                 self.drawn_version = max(self.drawn_version, version)
                 self.latency_s[version] = time.perf_counter() - t_submit
+                self.cpu_s[version] = time.thread_time() - cpu0
                 self._cond.notify_all()
 
 
@@ -122,7 +127,7 @@ class Dashboard:
         self._lock = threading.RLock()
         self._gizmos: list[viser.TransformControlsHandle] = []
         self._gizmo_quiet = threading.local()
-        self.capture: RerunCapture | None = None
+        self.recorder: Recorder | None = None
         self.notifications: list[tuple[str, str]] = []  # (title, body) of every notification sent
         self.loop = SimLoop(session_factory, config, on_event=self._on_sim_event)
         self._setup_scene()
@@ -154,8 +159,8 @@ class Dashboard:
         scene.add_light_hemisphere("/light/sky", intensity=0.8)
         scene.add_light_directional("/light/sun", intensity=1.5, position=(2.0, -3.0, 5.0))
         camera = self.server.initial_camera
-        camera.position = (-0.9, -3.4, 1.9)
-        camera.look_at = (1.1, 0.0, 0.55)
+        camera.position = (2.9, -2.3, 1.5)
+        camera.look_at = (0.9, 0.1, 0.55)
 
     def _setup_gui(self) -> None:
         gui = self.server.gui
@@ -171,22 +176,28 @@ class Dashboard:
                 lambda event: self.on_regenerate_footsteps(event.client)
             )
             self.controls.extra["gizmos"].on_update(lambda _: self.draw_gizmos(self._plan))
-            with gui.add_folder("Preview (Fig. 1a)"):
-                gui.add_markdown(_phase_legend())
-                self.preview_plots = PreviewPlots(gui)
         with tabs.add_tab("Simulate", viser.Icon.PLAYER_PLAY):
             self._setup_sim_gui(gui)
+            self._setup_legend(gui)
             self._setup_push_gui(gui)
-            with gui.add_folder("Live DCM"):
-                self.gui_live_axis = gui.add_dropdown("axis", ("x", "y", "z"), initial_value="y")
-                self.live_plot = LivePlot(gui, "y")
-                self.gui_live_axis.on_update(
-                    lambda event: setattr(self.live_plot, "axis", event.target.value)
-                )
         with tabs.add_tab("Presets", viser.Icon.FILE_SETTINGS):
             self._setup_preset_gui(gui)
+        self._setup_plot_panel(gui)
         self._plan = plan_from_config(self.config)
         self._show_config_extras(self.config)
+
+    def _setup_plot_panel(self, gui: viser.GuiApi) -> None:
+        """A second panel, docked left: the preview over time (Fig. 1a) and the live DCM."""
+        self.plot_panel = gui.add_panel()
+        with self.plot_panel.add_tab("Preview (Fig. 1a)", viser.Icon.CHART_LINE):
+            gui.add_markdown(_phase_legend())
+            self.preview_plots = PreviewPlots(gui)
+        with self.plot_panel.add_tab("Live DCM", viser.Icon.ACTIVITY):
+            self.gui_live_axis = gui.add_dropdown("axis", ("x", "y", "z"), initial_value="y")
+            self.live_plot = LivePlot(gui, "y")
+            self.gui_live_axis.on_update(lambda event: self.live_plot.set_axis(event.target.value))
+        self.plot_panel.dock_left()
+        self.plot_panel.set_width(400)
 
     def _setup_sim_gui(self, gui: viser.GuiApi) -> None:
         with gui.add_folder("Simulation"):
@@ -212,6 +223,16 @@ class Dashboard:
                 "Loop the plan", initial_value=True, hint="Restart when the plan has ended"
             )
             self.gui_loop.on_update(lambda event: self.loop.post("loop", event.target.value))
+
+    def _setup_legend(self, gui: viser.GuiApi) -> None:
+        gui.add_markdown(
+            "<small>On the floor (shifted down by Δz_vrp): "
+            "<span style='color:#00aaff'>●</span> measured DCM ξ · "
+            "<span style='color:#ff00c8'>●</span> adapted DCM ξ_adj · "
+            "<span style='color:#ffc800'>●</span> commanded VRP. Footsteps: "
+            "<span style='color:#ff00c8'>▭</span> adjusted (ghosts) · "
+            "<span style='color:#3c3c3c'>▬</span> realised.</small>"
+        )
 
     def _setup_push_gui(self, gui: viser.GuiApi) -> None:
         with gui.add_folder("Push"):
@@ -241,7 +262,8 @@ class Dashboard:
             gui.add_markdown(
                 "<small>Or click the robot: it is pushed at that body along the view "
                 "direction. Arrows: <span style='color:#e61e1e'>applied force</span>, "
-                "<span style='color:#1eaa3c'>observer estimate F̂</span>.</small>"
+                "<span style='color:#1eaa3c'>observer estimate F̂</span> (above the head)."
+                "</small>"
             )
 
     def _setup_preset_gui(self, gui: viser.GuiApi) -> None:
@@ -394,21 +416,23 @@ class Dashboard:
         self.loop.post("speed", float(speed))
 
     def on_record(self, recording: bool, client: viser.ClientHandle | None) -> bytes | None:
-        """Start capturing a rerun recording, or stop and offer it for download."""
+        """Start a rerun recording of the session, or stop it and offer the .rrd for download."""
         if recording:
-            self.capture = RerunCapture()
-            capture = self.capture
-            self.loop.post("call", lambda session: setattr(session, "on_tick", capture))
+            if self.recorder is not None:
+                return None
+            self.recorder = Recorder()
+            path = Path(tempfile.mkdtemp(prefix="dcmviz-")) / (_slug(self.config.name) + ".rrd")
+            self.loop.call(lambda session: self.recorder.start(session, path))
             return None
-        self.loop.post("call", lambda session: setattr(session, "on_tick", None))
-        capture, self.capture = self.capture, None
-        if capture is None:
+        recorder, self.recorder = self.recorder, None
+        if recorder is None:
             return None
-        time.sleep(0.05)  # let the simulation thread detach the capture
-        data = capture.finish()
+        path = Path(self.loop.call(lambda session: recorder.stop()))
+        data = path.read_bytes()
+        shutil.rmtree(path.parent, ignore_errors=True)
         if client is not None:
-            client.send_file_download(_slug(self.config.name) + ".rrd", data, save_immediately=True)
-        self.notify(client, "Recording ready", f"{capture.samples} samples, {len(data)} bytes")
+            client.send_file_download(path.name, data, save_immediately=True)
+        self.notify(client, "Recording ready", f"{path.name}: {recorder.samples} samples")
         return data
 
     # =============================================================================================
@@ -539,7 +563,9 @@ class Dashboard:
         last: Snapshot | None = None
         last_status = 0.0
         last_history = None
+        last_plan = None
         frames, fps_t0 = 0, time.perf_counter()
+        next_frame = fps_t0
         while not self._render_stop.is_set():
             t0 = time.perf_counter()
             snap = self.loop.snapshot
@@ -548,6 +574,14 @@ class Dashboard:
                     self.draw_snapshot(snap, last)
                 except Exception as err:  # noqa: BLE001 - never let drawing kill the thread
                     print(f"dcmviz: drawing failed: {err!r}")
+                if (
+                    snap.plan is not None
+                    and snap.plan is not last_plan
+                    and self.config.gait.mode == "continuous"
+                    and snap.version == self.version
+                ):  # the receding horizon moved: preview what the walker follows now
+                    self.preview.submit(self.version, snap.plan, self.config, time.perf_counter())
+                last_plan = snap.plan
                 if snap.history is not last_history and snap.history:
                     self.live_plot.draw(snap.history)
                     last_history = snap.history
@@ -560,7 +594,8 @@ class Dashboard:
             if t0 - last_status >= STATUS_DT_S:
                 self.gui_status.content = self.status_text(snap)
                 last_status = t0
-            time.sleep(max(0.0, period - (time.perf_counter() - t0)))
+            next_frame = max(next_frame + period, time.perf_counter() - period)
+            time.sleep(max(0.0, next_frame - time.perf_counter()))
 
     def draw_snapshot(self, snap: Snapshot, last: Snapshot | None) -> None:
         """Robot, overlays, force arrows and footstep markers of one snapshot."""
@@ -584,13 +619,16 @@ class Dashboard:
                         "/sim/lip_leg", np.array([[snap.v_cmd, snap.com]]), (90, 90, 90),
                         thickness=0.01,
                     )  # fmt: skip
+        # ξ, ξ_adj and the commanded VRP sit ~Δz_vrp up, inside the robot: draw them on the floor
+        # (shifted down by Δz_vrp = g b²), where they read against the footsteps
+        down = np.array([0.0, 0.0, GRAVITY * self.config.dcm.b**2 - 0.012])
         for name, value in (("xi", snap.xi), ("xi_adj", snap.xi_adj), ("v_cmd", snap.v_cmd)):
             handle = self._markers[name]
             if value is None:
                 handle.visible = False
             else:
                 handle.visible = True
-                handle.position = value
+                handle.position = value - down
         pushes = snap.pushes
         if pushes:
             # each arrow ends at the body it pushes
@@ -606,7 +644,7 @@ class Dashboard:
         if snap.f_hat is not None and snap.com is not None:
             fh = snap.f_hat
             if float(np.linalg.norm(fh)) > 2.0:
-                origin = snap.com + [0.0, 0.0, 0.25]
+                origin = snap.com + [0.0, 0.0, 0.95]  # above the head, where it is visible
                 scene.add_arrows(
                     "/sim/f_hat", np.array([[origin, origin + fh / draw.NEWTONS_PER_METRE]]),
                     draw.OBSERVER_COLOR, shaft_radius=0.012, head_radius=0.035, head_length=0.07,
@@ -634,11 +672,13 @@ class Dashboard:
     def _make_markers(self) -> None:
         scene = self.server.scene
         self._markers = {
-            "xi": scene.add_icosphere("/sim/xi", radius=0.035, color=draw.MEASURED_DCM_COLOR),
+            "xi": scene.add_icosphere("/sim/xi", radius=0.028, color=draw.MEASURED_DCM_COLOR),
             "xi_adj": scene.add_icosphere(
-                "/sim/xi_adj", radius=0.03, color=draw.ADJUSTED_DCM_COLOR
+                "/sim/xi_adj", radius=0.022, color=draw.ADJUSTED_DCM_COLOR
             ),
-            "v_cmd": scene.add_icosphere("/sim/v_cmd", radius=0.03, color=draw.COMMANDED_VRP_COLOR),
+            "v_cmd": scene.add_icosphere(
+                "/sim/v_cmd", radius=0.022, color=draw.COMMANDED_VRP_COLOR
+            ),
         }
         self._com_marker = scene.add_icosphere(
             "/sim/com", radius=0.09, color=(120, 120, 130), visible=False

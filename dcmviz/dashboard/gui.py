@@ -84,7 +84,9 @@ class Controls:
                 "Regenerate footsteps", hint="Drop dragged footsteps, use the generated ones"
             )
             self.extra["gizmos"] = gui.add_checkbox(
-                "Drag footsteps in 3D", initial_value=True, hint="Transform gizmos on each step"
+                "Drag footsteps in 3D",
+                initial_value=False,
+                hint="A gizmo on each footstep; dragging one makes the footsteps explicit",
             )
         with gui.add_folder("DCM (Table I)"):
             self._dropdown("dcm", "order", ("0", "1", "3", "5"), config)

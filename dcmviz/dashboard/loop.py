@@ -22,6 +22,7 @@ from dcmviz.gait import Footstep
 
 FALL_PAUSE_S = 1.0  # wall seconds the fallen robot stays visible before the reset
 PLAN_END_PAUSE_S = 1.5  # sim seconds standing at the end of a plan before looping
+MAX_LAG_S = 1.0  # sim seconds the loop may fall behind (e.g. descheduled) and still catch up
 SNAPSHOT_DT = 1.0 / 60.0  # wall seconds between published snapshots
 HISTORY_WINDOW_S = 8.0  # sim seconds of history in a snapshot
 HISTORY_DT = 0.2  # wall seconds between history copies (the live plot rate)
@@ -54,6 +55,7 @@ class Snapshot:
     adjusted_steps: tuple = ()  # Footsteps (gait.Footstep) still to come, as adjusted
     realised_steps: tuple = ()  # Footsteps where the feet really landed
     history: dict[str, np.ndarray] = field(default_factory=dict)
+    plan: Any = None  # the walker's current GaitPlan (continuous mode: the receding horizon)
     version: int = 0  # config version this snapshot was simulated with
     step_time_s: float = 0.0  # mean wall time of one control tick
 
@@ -169,7 +171,7 @@ class SimLoop:
                         "fell", f"The robot fell at t = {self.session.t:.2f} s; resetting."
                     )
                     break
-            if self.session.t < target - 0.25:  # cannot keep up: stop trying to catch up
+            if self.session.t < target - MAX_LAG_S:  # cannot keep up: stop trying to catch up
                 wall0, sim0 = time.perf_counter(), self.session.t
             self._maybe_loop_plan()
             now = time.perf_counter()
@@ -289,6 +291,7 @@ class SimLoop:
             adjusted_steps=tuple(adjusted),
             realised_steps=realised,
             history=history,
+            plan=plan,
             version=self.version,
             step_time_s=float(np.mean(self._step_times)) if self._step_times else 0.0,
         )

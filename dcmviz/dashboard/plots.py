@@ -84,6 +84,10 @@ class LivePlot:
             height=120,
         )
 
+    def set_axis(self, axis: str) -> None:
+        self.axis = axis
+        self.dcm.title = f"DCM {axis} [m]"
+
     def draw(self, history: dict[str, np.ndarray]) -> None:
         """Plot the history window (arrays of equal length; t plus (N, 3) DCMs and (N,) error)."""
         t = history.get("t")

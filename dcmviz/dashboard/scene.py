@@ -75,7 +75,7 @@ def draw_footsteps(scene: viser.SceneApi, data: PreviewData) -> None:
         standing = [s for s in data.soles if s.side == side and s.index < 0]
         _draw_soles(
             scene, f"/preview/soles/{side}", planned, data.foot_length, data.foot_width,
-            SIDE_COLORS[side], opacity=0.55,
+            SIDE_COLORS[side], opacity=0.7,
         )  # fmt: skip
         _draw_soles(
             scene, f"/preview/soles/{side}_start", standing, data.foot_length, data.foot_width,
@@ -86,23 +86,27 @@ def draw_footsteps(scene: viser.SceneApi, data: PreviewData) -> None:
 def draw_preview(scene: viser.SceneApi, data: PreviewData) -> None:
     """VRP trajectory coloured by phase kind, its waypoints, and the DCM trajectory (eqs. 13, 16)."""
     pts, colors = data.vrp_segments()
-    scene.add_line_segments("/preview/vrp", pts, colors, thickness=0.012)
+    scene.add_line_segments("/preview/vrp", pts, colors, thickness=4.0, thickness_units="screen")
     scene.add_point_cloud(
         "/preview/vrp_waypoints",
         data.waypoints.astype(np.float32),
         colors=VRP_WAYPOINT_COLOR,
-        point_size=0.025,
+        point_size=0.03,
         point_shape="circle",
     )
     scene.add_spline_catmull_rom(
-        "/preview/dcm", data.dcm[:: max(1, len(data.dcm) // 400)], color=DCM_COLOR, thickness=0.012
+        "/preview/dcm",
+        data.dcm[:: max(1, len(data.dcm) // 400)],
+        color=DCM_COLOR,
+        thickness=3.0,
+        thickness_units="screen",
     )
     # the ground projection of the DCM helps reading it against the footsteps
     ground = data.dcm.copy()
     ground[:, 2] = data.soles[0].position[2] + 0.003 if data.soles else 0.003
     scene.add_spline_catmull_rom(
         "/preview/dcm_ground", ground[:: max(1, len(ground) // 400)], color=(150, 160, 220),
-        thickness=0.006,
+        thickness=2.0, thickness_units="screen",
     )  # fmt: skip
 
 

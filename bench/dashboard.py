@@ -1,0 +1,171 @@
+"""Dashboard speed, one run, with one headless Chromium connected (numbers printed, not asserted).
+
+    PYTHONPATH=. python3 bench/dashboard.py [--preset presets/walk_forward.toml] [--seconds 10]
+                                            [--screenshot docs/dashboard.png]
+
+1. Preview latency: server-side time from a control change (the callback's entry point,
+   ``Dashboard.on_field_change``) to the new preview of a 20-step plan drawn into the scene and
+   the Fig. 1a plots (target < 50 ms), repeated while the simulation runs.
+2. Real-time factor of the simulation (simulated / wall seconds) with the browser connected
+   (target ≥ 1), and the frame rate of the scene updates (target ≥ 30 fps).
+3. Optionally a screenshot of the dashboard with the robot walking and the preview drawn.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import socket
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import viser  # noqa: E402
+
+from dcmviz.config import load_preset  # noqa: E402
+from dcmviz.dashboard import Dashboard  # noqa: E402
+
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--headless",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-component-update",
+    "--disable-sync",
+]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def preview_latency(dashboard: Dashboard, n: int = 30) -> np.ndarray:
+    """Seconds from on_field_change to the preview drawn, alternating two step lengths."""
+    out = []
+    for i in range(n):
+        value = 0.20 if i % 2 else 0.21
+        t0 = time.perf_counter()
+        assert dashboard.on_field_change("gait", "step_length", value)
+        assert dashboard.preview.wait(dashboard.version)
+        out.append(time.perf_counter() - t0)
+        time.sleep(0.05)  # the simulation keeps running in between
+    return np.array(out)
+
+
+def measure_rtf(dashboard: Dashboard, seconds: float) -> tuple[float, float, float]:
+    """(real-time factor, scene frames per second, process CPU fraction) over ``seconds``."""
+    loop = dashboard.loop
+    loop.post("reset")
+    time.sleep(0.5)
+    wall0, sim0, frames0 = time.perf_counter(), loop.session.t, dashboard.frames_drawn
+    cpu0 = time.process_time()
+    t_last, sim_total = sim0, 0.0
+    while time.perf_counter() - wall0 < seconds:
+        time.sleep(0.05)
+        t = loop.session.t
+        sim_total += t - t_last if t >= t_last else t  # the plan loops back to t = 0
+        t_last = t
+    wall = time.perf_counter() - wall0
+    fps = (dashboard.frames_drawn - frames0) / wall
+    return sim_total / wall, fps, (time.process_time() - cpu0) / wall
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--preset", default=str(ROOT / "presets" / "walk_forward.toml"))
+    parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--screenshot", default=None, help="PNG path for a dashboard screenshot")
+    parser.add_argument("--no-measure", action="store_true", help="only take the screenshot")
+    args = parser.parse_args()
+
+    from playwright.sync_api import sync_playwright
+
+    config = load_preset(args.preset).replace(gait={"n_steps": 20})
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    dashboard = Dashboard(server, config, presets_dir=ROOT / "presets")
+    url = f"http://127.0.0.1:{server.get_port()}"
+    print(f"load average before: {os.getloadavg()[0]:.2f} (2 cores shared)")
+    time.sleep(1.0)
+    lat = preview_latency(dashboard, 2 if args.no_measure else 30) * 1e3
+    print(
+        f"preview latency, no browser, simulation running: median {np.median(lat):.1f} ms, "
+        f"p95 {np.percentile(lat, 95):.1f} ms"
+    )
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=CHROMIUM_ARGS)
+        page = browser.new_page(viewport={"width": 1600, "height": 900})
+        page.goto(url)
+        page.get_by_text("T_ss [s]").wait_for(timeout=60_000)
+        time.sleep(2.0)
+
+        if args.no_measure:
+            take_screenshot(page, dashboard, Path(args.screenshot))
+            browser.close()
+            dashboard.stop()
+            server.stop()
+            return
+        lat = preview_latency(dashboard) * 1e3
+        print(
+            f"preview latency with the browser, 20-step plan (control change → scene + plots), n={len(lat)}: "
+            f"median {np.median(lat):.1f} ms, p95 {np.percentile(lat, 95):.1f} ms, "
+            f"max {lat.max():.1f} ms (target < 50 ms)"
+        )
+        worker = np.array(list(dashboard.preview.latency_s.values())[-len(lat) :]) * 1e3
+        cpu = np.array(list(dashboard.preview.cpu_s.values())[-len(lat) :]) * 1e3
+        print(
+            f"  of which in the preview worker (submit → drawn): median {np.median(worker):.1f} ms"
+            f" wall, {np.median(cpu):.1f} ms CPU (sampling + scene + plots)"
+        )
+
+        rtf, fps, cpu = measure_rtf(dashboard, args.seconds)
+        snap = dashboard.loop.snapshot
+        print(
+            f"simulation ({snap.backend}, {snap.robot}) with one browser connected: "
+            f"real-time factor {rtf:.2f} at speed 1 (paced; target ≥ 1), scene {fps:.1f} fps "
+            f"(target ≥ 30), server process CPU {100 * cpu:.0f} %, "
+            f"control tick {1e3 * snap.step_time_s:.2f} ms"
+        )
+        dashboard.on_speed(4.0)  # unpaced headroom: how fast can it go with the browser attached
+        time.sleep(0.5)
+        rtf_max, _, _ = measure_rtf(dashboard, min(args.seconds, 5.0))
+        dashboard.on_speed(1.0)
+        print(f"  at speed ×4 (headroom): real-time factor {rtf_max:.2f}")
+        print(f"load average after: {os.getloadavg()[0]:.2f}")
+
+        if args.screenshot:
+            take_screenshot(page, dashboard, Path(args.screenshot))
+        browser.close()
+    dashboard.stop()
+    server.stop()
+
+
+def take_screenshot(page, dashboard: Dashboard, path: Path) -> None:
+    """The default walk mid-way, preview drawn, notifications closed."""
+    dashboard.on_field_change("gait", "n_steps", 10)
+    dashboard.preview.wait(dashboard.version)
+    for button in page.locator("button.mantine-Notification-closeButton").all():
+        button.click()
+    loop = dashboard.loop
+    resets = loop.resets
+    loop.post("reset")
+    deadline = time.time() + 60
+    while loop.resets == resets and time.time() < deadline:
+        time.sleep(0.01)
+    while loop.session.t < 3.9 and time.time() < deadline:
+        time.sleep(0.01)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(path))
+    print(f"screenshot: {path}")
+
+
+if __name__ == "__main__":
+    main()
