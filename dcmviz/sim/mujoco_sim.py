@@ -13,9 +13,10 @@ import time
 import mujoco
 import numpy as np
 
+from dcmviz import GRAVITY
 from dcmviz.sim.robots import SIDES, Robot, load_robot
 from dcmviz.sim.wbc import Context, Gains, MomentObserver, WholeBodyController
-from dcmviz.state import MeasuredState, WalkerCommand
+from dcmviz.state import FootTarget, MeasuredState, WalkerCommand
 
 
 class MujocoBackend:
@@ -62,13 +63,44 @@ class MujocoBackend:
         self._applied = np.zeros(3)
         self._sole_bodies = [self.model.geom_bodyid[self.robot.sole_geoms[s]] for s in SIDES]
         self.t = 0.0
+        self._sink = 0.0
         self.reset()
+        if not hasattr(self.robot, "contact_sink_m"):
+            self.robot.contact_sink_m = self._settled_sink()
+        self._sink = self.robot.contact_sink_m
+        self.reset()
+
+    def _settled_sink(self, duration: float = 0.3) -> float:
+        """How deep (m) the soft sole contacts sink under the robot's weight: stand ``duration``
+        s on both feet and read the sole height. Starting that deep avoids a drop at t = 0."""
+        state = self.measure()
+        weight = np.array([0.0, 0.0, self.mass * GRAVITY])
+        zero = np.zeros(3)
+        command = WalkerCommand(
+            t=0.0,
+            support={s: True for s in SIDES},
+            feet={s: FootTarget(position=state.feet[s].copy()) for s in SIDES},
+            swing_side=None,
+            com_force=zero,
+            contact_force=weight,
+            xi=state.com,
+            xi_ref=state.com,
+            xi_adj=state.com,
+            v_ref=state.com,
+            v_cmd=state.com,
+            f_hat=zero,
+        )
+        for _ in range(round(duration / self.control_dt)):
+            state = self.step(command)
+        return float(max(0.0, -np.mean([state.feet[s][2] for s in SIDES])))
 
     # ------------------------------------------------------------------------------------
     def reset(self) -> MeasuredState:
-        """Nominal standing posture, soles at (0, ±spacing/2, 0), zero velocity, t = 0."""
+        """Nominal standing posture, soles at (0, ±spacing/2, 0) (sunk by the settled contact
+        depth, < 1 mm), zero velocity, no external force, t = 0."""
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[:] = self.robot.qpos_mj(self.robot.q_nominal)
+        self.data.qpos[2] -= self._sink  # soles as deep as they settle under the weight
         self.data.xfrc_applied[:] = 0.0
         mujoco.mj_forward(self.model, self.data)
         self._upper_bodies = np.flatnonzero(self.data.xpos[:, 2] > 0.25)
