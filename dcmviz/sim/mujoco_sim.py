@@ -65,7 +65,7 @@ class MujocoBackend:
         self.t = 0.0
         self._sink = 0.0
         self.reset()
-        if not hasattr(self.robot, "contact_sink_m"):
+        if self.robot.contact_sink_m is None:
             self.robot.contact_sink_m = self._settled_sink()
         self._sink = self.robot.contact_sink_m
         self.reset()

@@ -310,6 +310,8 @@ class Robot:
             - data.oMf[self.sole_frames["right"]].translation[1]
         )
         self.foot_length, self.foot_width = fl, fw
+        # how deep the soles settle into MuJoCo's soft floor contact (set by the first backend)
+        self.contact_sink_m: float | None = None
 
     # --- conversions -------------------------------------------------------------------------
     def q_pin(self, qpos: np.ndarray) -> np.ndarray:
