@@ -223,3 +223,53 @@ def test_preview_data_matches_plan() -> None:
     assert len(data.soles) == 22
     pts, colors = data.vrp_segments()
     assert pts.shape == (len(data.t) - 1, 2, 3) and colors.shape == pts.shape
+
+
+def test_clicking_the_robot_pushes_along_the_view(dash: Dashboard) -> None:
+    from types import SimpleNamespace
+
+    dash.gui_push_magnitude.value = 60.0
+    event = SimpleNamespace(ray_direction=(0.6, 0.0, -0.8), client=None)  # looking down, +x
+    assert dash.on_body_click("pelvis", event)
+    drain(dash)
+    push = dash.loop.session.pushes[-1]
+    np.testing.assert_allclose(push.force, [60.0, 0.0, 0.0], atol=1e-9)  # horizontal part only
+    assert push.body == "pelvis"
+
+
+def test_dragged_slider_configs_coalesce(dash: Dashboard) -> None:
+    resets = []
+    session = dash.loop.session
+    original = session.set_config
+    session.set_config = lambda *a, **k: (resets.append(a[0]), original(*a, **k))
+    for value in (0.21, 0.22, 0.23, 0.24):
+        assert dash.on_field_change("gait", "step_length", value)
+    drain(dash)
+    assert len(resets) == 1 and resets[0].gait.step_length == 0.24
+    assert dash.loop.version == dash.version
+
+
+def test_mode_robot_and_backend_switch(dash: Dashboard) -> None:
+    assert dash.on_field_change("gait", "mode", "continuous")
+    drain(dash)
+    session = dash.loop.session
+    for _ in range(int(4.0 / session.backend.control_dt)):
+        session.step()
+    assert session.steps_completed >= 2 and not session.fell
+    assert dash.on_field_change("robot", "model", "g1")
+    drain(dash)
+    assert dash.loop.session.config.robot.model == "g1"
+    assert dash.gui_push_body.options == tuple(get_spec("g1").bodies)
+    dash.loop._publish()
+    assert dash.loop.snapshot.robot == "g1" and dash.loop.snapshot.backend == "lip"
+
+
+def test_play_pause_reset_speed(dash: Dashboard) -> None:
+    dash.on_play(False)
+    assert dash.gui_play.label == "Play"
+    dash.on_speed(0.5)
+    dash.on_reset()
+    drain(dash)
+    assert not dash.loop.playing and dash.loop.speed == 0.5 and dash.loop.resets == 1
+    dash.on_play(True)
+    assert dash.gui_play.label == "Pause"

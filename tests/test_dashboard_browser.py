@@ -194,3 +194,26 @@ def test_export_preset_loads_back(page, app, shots: Path) -> None:
     config = loads_preset(Path(path).read_text())
     assert config == dashboard.config
     page.screenshot(path=shots / "05_presets.png")
+
+
+def test_upload_preset(page, app, shots: Path) -> None:
+    dashboard, _ = app
+    page.get_by_role("tab", name="Presets").click()
+    before = dashboard.config
+    upload = page.locator("input[type=file]").first
+    upload.set_input_files(
+        files=[{"name": "bad.toml", "mimeType": "text/plain", "buffer": b"[gait]\nt_ss = -1.0\n"}]
+    )
+    assert wait_for(lambda: dashboard.notifications[-1][0] == "Preset refused")
+    assert dashboard.config == before
+    good = before.replace(gait={"n_steps": 6}).model_copy(update={"name": "Uploaded"})
+    from dcmviz.config import dumps_preset
+
+    upload.set_input_files(
+        files=[
+            {"name": "good.toml", "mimeType": "text/plain", "buffer": dumps_preset(good).encode()}
+        ]
+    )
+    assert wait_for(lambda: dashboard.config.name == "Uploaded")
+    assert dashboard.config == good
+    page.screenshot(path=shots / "06_uploaded.png")

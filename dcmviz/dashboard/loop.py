@@ -192,37 +192,50 @@ class SimLoop:
             self._rtf_window.clear()
 
     def _handle_commands(self) -> bool:
-        """Apply queued commands; True when the clock must be re-anchored."""
-        reanchor = False
+        """Apply queued commands; True when the clock must be re-anchored.
+
+        Of several queued configs (a slider being dragged) only the newest is applied.
+        """
+        commands: list[tuple[str, Any]] = []
         while True:
             try:
-                kind, payload = self._commands.get_nowait()
+                commands.append(self._commands.get_nowait())
             except queue.Empty:
-                return reanchor
-            if kind == "config":
-                version, config = payload
-                self._apply_config(config)
-                self.version = version
-                reanchor = True
-            elif kind == "reset":
-                self._fallen_at = None
-                self.session.reset()
-                self.resets += 1
-                reanchor = True
-            elif kind == "push":
-                self.session.push(**payload)
-            elif kind == "play":
-                self.playing = bool(payload)
-                reanchor = True
-            elif kind == "speed":
-                self.speed = float(payload)
-                reanchor = True
-            elif kind == "loop":
-                self.loop_plan = bool(payload)
-            elif kind == "call":
-                payload(self.session)
-                reanchor = True
-            self._publish()
+                break
+        if not commands:
+            return False
+        last_config = max((i for i, (k, _) in enumerate(commands) if k == "config"), default=-1)
+        for i, (kind, payload) in enumerate(commands):
+            if kind == "config" and i != last_config:
+                continue
+            try:
+                self._apply(kind, payload)
+            except Exception as err:  # noqa: BLE001 - a bad command must not stop the simulation
+                self.on_event("error", f"{kind}: {err}")
+        self._publish()
+        return True
+
+    def _apply(self, kind: str, payload: Any) -> None:
+        if kind == "config":
+            version, config = payload
+            self._apply_config(config)
+            self.version = version
+        elif kind == "reset":
+            self._fallen_at = None
+            self.session.reset()
+            self.resets += 1
+        elif kind == "push":
+            self.session.push(**payload)
+        elif kind == "play":
+            self.playing = bool(payload)
+        elif kind == "speed":
+            self.speed = float(payload)
+        elif kind == "loop":
+            self.loop_plan = bool(payload)
+        elif kind == "call":
+            payload(self.session)
+        else:
+            raise ValueError(f"unknown command {kind!r}")
 
     def _apply_config(self, config: Config) -> None:
         self._fallen_at = None
