@@ -47,6 +47,9 @@ class MeasuredState:
     # (support polygon, friction, torque limits): the "known force" of the observer, eq. (42).
     # None: the walker uses the force it asked for.
     applied_contact_force: np.ndarray | None = None
+    # estimated external moment about the CoM (N·m, world), e.g. a push above the CoM; None when
+    # the backend has no such estimate (the point mass: every force acts at the CoM)
+    external_moment: np.ndarray | None = None
 
     @property
     def momentum(self) -> np.ndarray:

@@ -28,6 +28,7 @@ from dcmviz.dcm import (
     DisturbanceObserver,
     com_force,
     dcm_adjustment,
+    moment_shift,
     reference_shift,
     step_adjustment,
     vrp_tracking,
@@ -129,6 +130,8 @@ class Walker:
         else:
             f_hat = np.zeros(3)
         shift = reference_shift(f_hat, m, b) if cfg.observer else np.zeros(3)
+        if cfg.observer and state.external_moment is not None:
+            shift = shift + moment_shift(state.external_moment, m)
 
         preview = self.plan.preview
         local = t - self.plan.t0

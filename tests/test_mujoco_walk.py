@@ -161,12 +161,10 @@ def _tug_of_war(force_n: float, observer: bool) -> bool:
 
 @pytest.mark.slow
 def test_tug_of_war_needs_the_observer():
-    """A lateral torso pull of 10 % body weight ramped over 6 s and held 5 s while walking.
-
-    (The preset's 15 % is not survived: a pull on the torso, 0.38 m above the CoM, also needs a
-    0.057 m CoP shift that the walker's VRP shift, which assumes the force acts at the CoM, does
-    not leave room for in single support.)"""
-    force = 0.10 * 90.27 * GRAVITY
+    """tug_of_war.toml: a lateral torso pull ramped to 15 % of body weight over 6 s and held to
+    the end (7 s) while walking 12 steps: survived with the observer (force shift, eqs. 47–49,
+    plus the moment shift for a pull above the CoM), lost without it."""
+    force = 0.15 * 90.27 * GRAVITY
     assert _tug_of_war(force, observer=True)
     assert not _tug_of_war(force, observer=False)
 

@@ -64,3 +64,15 @@ def test_shift_keeps_the_contact_vrp_on_the_nominal_foothold(observer):
         np.testing.assert_allclose(cmd.f_hat[:2], [0.0, 25.0], atol=0.05)
     else:
         assert offset > 0.02
+
+
+def test_moment_shift_leans_further_away_from_a_pull_above_the_com():
+    """A pull F e_y at height h above the CoM makes τ = h e_z × F e_y = −h F e_x; the centre of
+    pressure stays on the foothold only if the CoM moves a further h F / (m g) away from the pull."""
+    from dcmviz.dcm import moment_shift
+
+    m, h, force = 90.0, 0.38, 133.0
+    tau = np.cross([0.0, 0.0, h], [0.0, force, 0.0])
+    np.testing.assert_allclose(
+        moment_shift(tau, m, GRAVITY), [0.0, -h * force / (m * GRAVITY), 0.0]
+    )

@@ -20,7 +20,7 @@ from dcmviz.dcm.interpolation import (
     gamma_0,
     sigma,
 )
-from dcmviz.dcm.observer import DisturbanceObserver, reference_shift
+from dcmviz.dcm.observer import DisturbanceObserver, moment_shift, reference_shift
 from dcmviz.dcm.preview import PhaseSchedule, Preview
 
 __all__ = [
@@ -31,6 +31,7 @@ __all__ = [
     "com_force",
     "dcm",
     "dcm_adjustment",
+    "moment_shift",
     "reference_shift",
     "step_adjustment",
     "vrp_adjusted",

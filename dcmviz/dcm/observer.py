@@ -49,3 +49,16 @@ class DisturbanceObserver:
 def reference_shift(f_hat: NDArray, mass: float, b: float) -> NDArray:
     """Offset −b²/m F̂ added to v_ref, ξ_ref and ξ_adj (eqs. 47–49)."""
     return -(b * b / mass) * np.asarray(f_hat, dtype=float)
+
+
+def moment_shift(tau_hat: NDArray, mass: float, gravity: float = 9.81) -> NDArray:
+    """Extra reference offset (−τ̂_y, τ̂_x, 0)/(m g) for an external moment τ̂ about the CoM.
+
+    Not in the paper, whose shift (47)–(49) assumes the force acts at the CoM: a push above the
+    CoM (a pull on the torso) also turns the robot.  Cancelling that moment needs the centre of
+    pressure (τ̂_y, −τ̂_x)/(m g) away from the force line through the CoM; shifting the VRP and DCM
+    references the other way keeps the centre of pressure on the nominal foothold, just as
+    eqs. (47)–(49) keep the eCMP there.
+    """
+    tau = np.asarray(tau_hat, dtype=float)
+    return np.array([-tau[1], tau[0], 0.0]) / (mass * gravity)

@@ -165,6 +165,7 @@ class MujocoBackend:
             in_contact=dict(self._contact),
             mass=self.mass,
             applied_contact_force=self._applied.copy(),
+            external_moment=ctx.external_moment.copy(),
         )
 
     def step(self, command: WalkerCommand) -> MeasuredState:
