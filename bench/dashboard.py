@@ -149,22 +149,31 @@ def main() -> None:
 
 
 def take_screenshot(page, dashboard: Dashboard, path: Path) -> None:
-    """The default walk mid-way, preview drawn, notifications closed."""
+    """The default walk mid-way under a steady lateral push (arrows, a ghost step), paused so
+    the picture is exactly what the server drew; notifications closed."""
     dashboard.on_field_change("gait", "n_steps", 10)
     dashboard.preview.wait(dashboard.version)
     for button in page.locator("button.mantine-Notification-closeButton").all():
         button.click()
+    for client in dashboard.server.get_clients().values():  # front-right: the push crosses the view
+        client.camera.position = (2.75, -1.35, 1.4)
+        client.camera.look_at = (0.8, 0.2, 0.6)
     loop = dashboard.loop
     resets = loop.resets
     loop.post("reset")
+    push = {"force": (0.0, 60.0, 0.0), "duration": 3.0, "ramp": 0.5, "body": "torso", "start": 1.6}
+    loop.post("push", push)
     deadline = time.time() + 60
     while loop.resets == resets and time.time() < deadline:
         time.sleep(0.01)
-    while loop.session.t < 3.9 and time.time() < deadline:
-        time.sleep(0.01)
+    while loop.session.t < 3.1 and time.time() < deadline:
+        time.sleep(0.005)
+    dashboard.on_play(False)
+    time.sleep(2.5)  # let the browser catch up with the last frames
     path.parent.mkdir(parents=True, exist_ok=True)
     page.screenshot(path=str(path))
-    print(f"screenshot: {path}")
+    dashboard.on_play(True)
+    print(f"screenshot: {path} (t = {loop.session.t:.2f} s, falls {loop.falls})")
 
 
 if __name__ == "__main__":

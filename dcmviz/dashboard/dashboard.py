@@ -159,8 +159,8 @@ class Dashboard:
         scene.add_light_hemisphere("/light/sky", intensity=0.8)
         scene.add_light_directional("/light/sun", intensity=1.5, position=(2.0, -3.0, 5.0))
         camera = self.server.initial_camera
-        camera.position = (2.9, -2.3, 1.5)
-        camera.look_at = (0.9, 0.1, 0.55)
+        camera.position = (3.1, -2.4, 1.6)
+        camera.look_at = (1.05, 0.3, 0.5)
 
     def _setup_gui(self) -> None:
         gui = self.server.gui
@@ -631,11 +631,15 @@ class Dashboard:
                 handle.position = value - down
         pushes = snap.pushes
         if pushes:
-            # each arrow ends at the body it pushes
-            pts = np.array([[p - f / draw.NEWTONS_PER_METRE, p] for _, p, f in pushes])
+            # each arrow ends just outside the body it pushes (its head stays visible)
+            pts = []
+            for _, p, f in pushes:
+                u = f / max(float(np.linalg.norm(f)), 1e-9)
+                tip = p - draw.ARROW_STANDOFF_M * u
+                pts.append([tip - f / draw.NEWTONS_PER_METRE, tip])
             scene.add_arrows(
-                "/sim/force", pts, draw.FORCE_COLOR, shaft_radius=0.015, head_radius=0.04,
-                head_length=0.08,
+                "/sim/force", np.array(pts), draw.FORCE_COLOR, shaft_radius=0.018,
+                head_radius=0.045, head_length=0.09,
             )  # fmt: skip
             self._force_shown = True
         elif getattr(self, "_force_shown", False):
@@ -696,11 +700,14 @@ class Dashboard:
         state = "fallen" if snap.fallen else ("walking" if snap.playing else "paused")
         if snap.done and not snap.fallen:
             state = "standing (plan done)"
-        rtf = snap.real_time_factor
+        speed = (
+            f"real-time ×{snap.real_time_factor:4.2f} · {self.fps:4.1f} fps · "
+            if snap.playing and not snap.fallen
+            else ""
+        )
         return (
             f"**{self.config.name}** · {snap.robot} · {snap.backend}  \n"
-            f"t = {snap.t:6.2f} s · real-time ×{rtf:4.2f} · {self.fps:4.1f} fps · "
-            f"falls {snap.falls} · {state}"
+            f"t = {snap.t:6.2f} s · {speed}falls {snap.falls} · {state}"
         )
 
     # =============================================================================================

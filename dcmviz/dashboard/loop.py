@@ -268,15 +268,8 @@ class SimLoop:
         if now - self._last_history >= HISTORY_DT or not self.playing:
             history = self._history_window(s)
             self._last_history = now
-        adjusted: list[Footstep] = []
         plan = s.plan
-        if plan is not None:
-            adjusted = list(plan.steps[s.steps_completed :])
-            target = s.adjusted_target
-            if target is not None and 0 <= target[0] < len(plan.steps):
-                step = plan.steps[target[0]]
-                adjusted = [a for a in adjusted if a is not step]
-                adjusted.insert(0, Footstep(step.side, np.array(target[1], float), step.yaw))
+        adjusted = self._adjusted_steps(s, plan) if plan is not None else []
         realised = tuple(
             Footstep(r.side, np.array(r.position, float), 0.0) for r in s.realised_steps()
         )
@@ -308,6 +301,26 @@ class SimLoop:
             version=self.version,
             step_time_s=float(np.mean(self._step_times)) if self._step_times else 0.0,
         )
+
+    @staticmethod
+    def _adjusted_steps(session: Any, plan: Any) -> list[Footstep]:
+        """Footsteps still to come that differ from the nominal plan (the one being adjusted
+        right now first): the ghosts."""
+        out: list[Footstep] = []
+        target = session.adjusted_target
+        if target is not None and 0 <= target[0] < len(plan.steps):
+            step = plan.steps[target[0]]
+            out.append(Footstep(step.side, np.array(target[1], float), step.yaw))
+        nominal = getattr(session.walker, "nominal_plan", None)
+        if nominal is None or len(nominal.steps) != len(plan.steps):
+            return out
+        for k in range(session.steps_completed, len(plan.steps)):
+            if target is not None and k == target[0]:
+                continue
+            p, q = plan.steps[k].position, nominal.steps[k].position
+            if float(np.linalg.norm(np.asarray(p) - np.asarray(q))) > 1e-3:
+                out.append(plan.steps[k])
+        return out
 
     @staticmethod
     def _pushes(session: Any, state: Any) -> tuple[tuple[str, np.ndarray, np.ndarray], ...]:

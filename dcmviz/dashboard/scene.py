@@ -25,6 +25,7 @@ GHOST_COLOR = (255, 0, 200)
 REALISED_COLOR = (60, 60, 60)
 SOLE_THICKNESS_M = 0.006
 NEWTONS_PER_METRE = 100.0  # arrow length scale: 100 N ↔ 1 m
+ARROW_STANDOFF_M = 0.15  # a push arrow stops this far before the body point (outside the shell)
 
 
 def soles_mesh(
