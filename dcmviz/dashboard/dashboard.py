@@ -39,7 +39,7 @@ from dcmviz.gait import GaitPlan, plan_footsteps, plan_from_config
 from dcmviz.record import Recorder
 from dcmviz.sim.specs import get_spec
 
-RENDER_FPS = 30.0
+RENDER_FPS = 40.0  # scene updates per second (≥ 30 with margin for scheduling jitter)
 STATUS_DT_S = 0.25
 CURRENT = "(current)"
 
