@@ -58,6 +58,7 @@ class PreviewWorker:
         self._cond = threading.Condition()
         self._pending: tuple[int, GaitPlan, Config, float] | None = None
         self.drawn_version = -1
+        self.draws = 0  # plans drawn (continuous mode redraws the receding horizon)
         self.latency_s: dict[int, float] = {}  # version → submit-to-drawn seconds
         self.cpu_s: dict[int, float] = {}  # version → CPU seconds of this thread to draw it
         self.data: PreviewData | None = None
@@ -103,6 +104,7 @@ class PreviewWorker:
                 print(f"dcmviz: preview drawing failed: {err!r}")
             with self._cond:
                 self.drawn_version = max(self.drawn_version, version)
+                self.draws += 1
                 self.latency_s[version] = time.perf_counter() - t_submit
                 self.cpu_s[version] = time.thread_time() - cpu0
                 self._cond.notify_all()

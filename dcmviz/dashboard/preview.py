@@ -48,7 +48,7 @@ class Sole:
 class PreviewData:
     """Everything the preview draws, sampled once per plan."""
 
-    t: np.ndarray  # (N,) s
+    t: np.ndarray  # (N,) s, global time (plan.t0 + plan-local time)
     vrp: np.ndarray  # (N, 3) m, eq. (13)
     dcm: np.ndarray  # (N, 3) m, eq. (16)
     sample_kind: tuple[str, ...]  # (N,) phase kind of each sample
@@ -87,7 +87,7 @@ def preview_data(plan: GaitPlan, spec: RobotSpec) -> PreviewData:
         Sole(f.side, np.asarray(f.position, float), f.yaw, i) for i, f in enumerate(plan.steps)
     ]
     return PreviewData(
-        t=t,
+        t=plan.t0 + t,
         vrp=plan.preview.vrp(t),
         dcm=plan.preview.dcm(t),
         sample_kind=tuple(kinds),
