@@ -273,3 +273,12 @@ def test_play_pause_reset_speed(dash: Dashboard) -> None:
     assert not dash.loop.playing and dash.loop.speed == 0.5 and dash.loop.resets == 1
     dash.on_play(True)
     assert dash.gui_play.label == "Pause"
+
+
+def test_preset_dropdown_follows_edits(dash: Dashboard) -> None:
+    dash.gui_preset.value = "lateral_push"  # as the browser would: runs the callback
+    assert dash.config.name == load_preset(PRESETS / "lateral_push.toml").name
+    assert dash.gui_preset.value == "lateral_push"
+    assert dash.on_field_change("control", "k_xi", 4.0)
+    assert dash.gui_preset.value == "(current)"  # edited: no longer the preset file
+    assert dash.config.control.k_xi == 4.0

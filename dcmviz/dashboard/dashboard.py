@@ -340,8 +340,9 @@ class Dashboard:
             config = load_preset(self.presets_dir / f"{name}.toml")
         except ConfigError as err:
             self.notify(client, "Preset not loaded", str(err), error=True)
+            self.gui_preset.value = CURRENT
             return False
-        return self.apply_config(config, client)
+        return self.apply_config(config, client, preset=name)
 
     def on_upload(self, filename: str, content: bytes, client: viser.ClientHandle | None) -> bool:
         """An uploaded TOML preset: size-limited, validated, adopted or refused with a reason."""
@@ -447,8 +448,13 @@ class Dashboard:
             return False
         return self.apply_config(config, client)
 
-    def apply_config(self, config: Config, client: viser.ClientHandle | None = None) -> bool:
-        """Adopt a validated config: preview it, hand it to the simulation, show it in the panel."""
+    def apply_config(
+        self, config: Config, client: viser.ClientHandle | None = None, *, preset: str = CURRENT
+    ) -> bool:
+        """Adopt a validated config: preview it, hand it to the simulation, show it in the panel.
+
+        ``preset`` names the preset file it came from (the dropdown shows it until the next edit).
+        """
         t_submit = time.perf_counter()
         with self._lock:
             try:
@@ -465,6 +471,7 @@ class Dashboard:
             self.preview.submit(version, plan, config, t_submit)
             self.controls.show(config)
             self._show_config_extras(config)
+            self.gui_preset.value = preset  # its callback ignores CURRENT
             if robot_changed:
                 bodies = tuple(get_spec(config.robot.model).bodies)
                 self.gui_push_body.options = bodies
