@@ -19,11 +19,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--host", default="127.0.0.1", help="bind address (default: loopback)")
     parser.add_argument("--port", type=int, default=8080)
     args = parser.parse_args(argv)
+    path = args.preset if args.preset is not None else DEFAULT_PRESET
     try:
-        if args.preset is not None:
-            config = load_preset(args.preset)
-        elif DEFAULT_PRESET.exists():
-            config = load_preset(DEFAULT_PRESET)
+        if args.preset is not None or DEFAULT_PRESET.exists():
+            config = load_preset(path)
         else:
             config = Config()
     except ConfigError as err:
@@ -36,8 +35,14 @@ def main(argv: list[str] | None = None) -> int:
     from dcmviz.dashboard import serve
 
     try:
+        presets = ROOT / "presets"
+        in_presets = path.resolve().parent == presets.resolve() and path.exists()
         server, dashboard = serve(
-            config, host=args.host, port=args.port, presets_dir=ROOT / "presets"
+            config,
+            host=args.host,
+            port=args.port,
+            presets_dir=presets,
+            preset=path.stem if in_presets else "(current)",
         )
     except OSError as err:
         print(f"app.py: cannot listen on {args.host}:{args.port}: {err}", file=sys.stderr)

@@ -282,3 +282,43 @@ def test_preset_dropdown_follows_edits(dash: Dashboard) -> None:
     assert dash.on_field_change("control", "k_xi", 4.0)
     assert dash.gui_preset.value == "(current)"  # edited: no longer the preset file
     assert dash.config.control.k_xi == 4.0
+
+
+def test_app_rejects_a_bad_preset_with_one_line(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[gait]\nt_ss = -1.0\n")
+    app = Path(__file__).resolve().parents[1] / "app.py"
+    for arg in (str(bad), str(tmp_path / "missing.toml")):
+        out = subprocess.run(
+            [sys.executable, str(app), "--preset", arg], capture_output=True, text=True, timeout=60
+        )
+        assert out.returncode == 2
+        assert len(out.stderr.strip().splitlines()) == 1 and "app.py:" in out.stderr
+
+
+def test_app_serves_on_loopback() -> None:
+    import subprocess
+    import sys
+    import urllib.request
+
+    app = Path(__file__).resolve().parents[1] / "app.py"
+    port = free_port()
+    proc = subprocess.Popen(
+        [sys.executable, str(app), "--port", str(port)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    try:
+        line = ""
+        deadline = time.time() + 60
+        while "dcmviz dashboard:" not in line and time.time() < deadline:
+            line = proc.stdout.readline()
+        assert f"http://localhost:{port}" in line
+        assert urllib.request.urlopen(f"http://127.0.0.1:{port}", timeout=10).status == 200
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)

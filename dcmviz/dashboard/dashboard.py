@@ -121,7 +121,9 @@ class Dashboard:
         presets_dir: Path | str = "presets",
         start: bool = True,
         session_factory: Any = _session_factory,
+        preset: str = CURRENT,
     ) -> None:
+        self._initial_preset = preset  # shown in the preset dropdown (a stem of presets_dir)
         self.server = server
         self.config = config  # the last good configuration
         self.version = 0
@@ -270,9 +272,9 @@ class Dashboard:
 
     def _setup_preset_gui(self, gui: viser.GuiApi) -> None:
         with gui.add_folder("Presets"):
-            self.gui_preset = gui.add_dropdown(
-                "preset", (CURRENT, *self.preset_names()), initial_value=CURRENT
-            )
+            names = (CURRENT, *self.preset_names())
+            initial = self._initial_preset if self._initial_preset in names else CURRENT
+            self.gui_preset = gui.add_dropdown("preset", names, initial_value=initial)
             self.gui_preset.on_update(
                 lambda event: self.on_preset_selected(event.target.value, event.client)
             )
@@ -754,7 +756,8 @@ def serve(
     host: str = "127.0.0.1",
     port: int = 8080,
     presets_dir: Path | str = "presets",
+    preset: str = CURRENT,
 ) -> tuple[viser.ViserServer, Dashboard]:
-    """A viser server on ``host:port`` with the dashboard running ``config``."""
+    """A viser server on ``host:port`` with the dashboard running ``config`` (from ``preset``)."""
     server = viser.ViserServer(host=host, port=port, label="dcmviz", verbose=False)
-    return server, Dashboard(server, config, presets_dir=presets_dir)
+    return server, Dashboard(server, config, presets_dir=presets_dir, preset=preset)
