@@ -41,6 +41,7 @@ from dcmviz.sim.specs import get_spec
 
 RENDER_FPS = 40.0  # scene updates per second (≥ 30 with margin for scheduling jitter)
 STATUS_DT_S = 0.25
+FOLLOW_DT_S = 0.1  # camera-follow updates (per client, so kept slow)
 CURRENT = "(current)"
 
 
@@ -157,8 +158,8 @@ class Dashboard:
         scene.set_up_direction("+z")
         scene.add_grid(
             "/grid", width=12.0, height=12.0, cell_size=0.1, section_size=1.0,
-            plane="xy", position=(2.0, 0.0, -0.001), cell_color=(220, 220, 220),
-            section_color=(170, 170, 170),
+            plane="xy", position=(0.0, 0.0, -0.001), cell_color=(220, 220, 220),
+            section_color=(170, 170, 170), infinite_grid=True, fade_distance=30.0,
         )  # fmt: skip
         scene.add_light_hemisphere("/light/sky", intensity=0.8)
         scene.add_light_directional("/light/sun", intensity=1.5, position=(2.0, -3.0, 5.0))
@@ -227,6 +228,10 @@ class Dashboard:
                 "Loop the plan", initial_value=True, hint="Restart when the plan has ended"
             )
             self.gui_loop.on_update(lambda event: self.loop.post("loop", event.target.value))
+            self.gui_follow = gui.add_checkbox(
+                "Camera follows the robot", initial_value=False,
+                hint="Every open view keeps its angle and moves with the robot",
+            )  # fmt: skip
 
     def _setup_legend(self, gui: viser.GuiApi) -> None:
         gui.add_markdown(
@@ -575,6 +580,7 @@ class Dashboard:
         last_status = 0.0
         last_history = None
         last_plan = None
+        last_follow = 0.0
         frames, fps_t0 = 0, time.perf_counter()
         next_frame = fps_t0
         while not self._render_stop.is_set():
@@ -602,6 +608,9 @@ class Dashboard:
             if t0 - fps_t0 >= 1.0:
                 self.fps = frames / (t0 - fps_t0)
                 frames, fps_t0 = 0, t0
+            if t0 - last_follow >= FOLLOW_DT_S:
+                self._follow(snap)
+                last_follow = t0
             if t0 - last_status >= STATUS_DT_S:
                 self.gui_status.content = self.status_text(snap)
                 last_status = t0
@@ -683,6 +692,26 @@ class Dashboard:
                 scene, "/sim/realised", soles, spec.foot_length_m, spec.foot_width_m,
                 draw.REALISED_COLOR, opacity=0.6, lift=0.008,
             )  # fmt: skip
+
+    def _follow(self, snap: Snapshot) -> None:
+        """Move every client's camera by the robot's horizontal displacement since last time."""
+        anchor = snap.base_position if snap.base_position is not None else snap.com
+        if anchor is None:
+            return
+        here = np.array([anchor[0], anchor[1], 0.0])
+        last, self._follow_anchor = getattr(self, "_follow_anchor", None), here
+        if not self.gui_follow.value or last is None:
+            return
+        delta = here - last
+        if float(np.linalg.norm(delta)) < 1e-4:  # standing still
+            return
+        for client in list(self.server.get_clients().values()):
+            try:
+                # moving the camera position translates the view (the client keeps the
+                # look-at offset); setting look_at as well would move the target twice
+                client.camera.position = client.camera.position + delta
+            except Exception:  # noqa: BLE001 - a client that just closed
+                pass
 
     def _make_markers(self) -> None:
         scene = self.server.scene
