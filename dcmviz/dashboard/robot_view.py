@@ -159,5 +159,5 @@ class RobotView:
         self.root.visible = visible
 
     def remove(self) -> None:
-        self.view.remove()
+        """Remove the robot (the root node takes every link frame and mesh with it)."""
         self.root.remove()
