@@ -66,7 +66,7 @@ def measure_rtf(dashboard: Dashboard, seconds: float) -> tuple[float, float, flo
     loop = dashboard.loop
     loop.post("reset")
     time.sleep(0.5)
-    wall0, sim0, frames0 = time.perf_counter(), loop.session.t, dashboard.frames_drawn
+    wall0, sim0, frames0 = time.perf_counter(), loop.session.t, dashboard.view.frames_drawn
     cpu0 = time.process_time()
     t_last, sim_total = sim0, 0.0
     while time.perf_counter() - wall0 < seconds:
@@ -75,7 +75,7 @@ def measure_rtf(dashboard: Dashboard, seconds: float) -> tuple[float, float, flo
         sim_total += t - t_last if t >= t_last else t  # the plan loops back to t = 0
         t_last = t
     wall = time.perf_counter() - wall0
-    fps = (dashboard.frames_drawn - frames0) / wall
+    fps = (dashboard.view.frames_drawn - frames0) / wall
     return sim_total / wall, fps, (time.process_time() - cpu0) / wall
 
 
