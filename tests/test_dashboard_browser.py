@@ -217,3 +217,39 @@ def test_upload_preset(page, app, shots: Path) -> None:
     assert wait_for(lambda: dashboard.config.name == "Uploaded")
     assert dashboard.config == good
     page.screenshot(path=shots / "06_uploaded.png")
+
+
+def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
+    """Clicking the point mass (a clickable sphere at the CoM) pushes along the view direction."""
+    import viser.transforms as vtf
+
+    dashboard, _ = app
+    dashboard.on_play(False)
+    time.sleep(0.3)
+    client = list(dashboard.server.get_clients().values())[-1]
+    com = np.asarray(dashboard.loop.snapshot.com)
+    client.camera.position = com + np.array([-2.0, -0.6, 0.4])  # behind: view ≈ +x
+    client.camera.look_at = com + np.array([0.0, -0.5, 0.0])  # the CoM left of the panel
+    time.sleep(1.5)
+    cam = client.camera
+    # pinhole projection (viser cameras are OpenCV-style: x right, y down, z forward)
+    R = vtf.SO3(np.asarray(cam.wxyz)).as_matrix()
+    p = R.T @ (com - np.asarray(cam.position))
+    f = 0.5 * cam.image_height / np.tan(0.5 * cam.fov)
+    u = (0.5 * cam.image_width + f * p[0] / p[2]) / cam.image_width
+    v = (0.5 * cam.image_height + f * p[1] / p[2]) / cam.image_height
+    box = page.locator("canvas").first.bounding_box()
+    n = len(dashboard.loop.session.pushes)
+    for button in page.locator("button.mantine-Notification-closeButton").all():
+        try:  # notifications may cover the robot; some close by themselves meanwhile
+            button.click(timeout=500)
+        except sync_api.Error:
+            pass
+    time.sleep(0.5)
+    page.mouse.click(box["x"] + u * box["width"], box["y"] + v * box["height"])
+    assert wait_for(lambda: len(dashboard.loop.session.pushes) == n + 1, timeout=5)
+    push = dashboard.loop.session.pushes[-1]
+    assert push.body == "torso"
+    assert push.force[0] > 0.8 * np.linalg.norm(push.force)  # along the view, horizontal
+    page.screenshot(path=shots / "07_click_push.png")
+    dashboard.on_play(True)

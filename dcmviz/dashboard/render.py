@@ -111,10 +111,11 @@ class SimView:
             if snap.com is not None:
                 self._com_marker.visible = True
                 self._com_marker.position = snap.com
-                if snap.v_cmd is not None:  # the pendulum "leg" from the commanded VRP
+                if snap.v_cmd is not None:  # the pendulum "leg": floor point below the VRP → CoM
+                    dz = GRAVITY * self.dashboard.config.dcm.b**2
                     scene.add_line_segments(
-                        "/sim/lip_leg", np.array([[snap.v_cmd, snap.com]]), (90, 90, 90),
-                        thickness=0.01,
+                        "/sim/lip_leg", np.array([[snap.v_cmd - [0.0, 0.0, dz], snap.com]]),
+                        (90, 90, 90), thickness=0.012,
                     )  # fmt: skip
         # ξ, ξ_adj and the commanded VRP sit ~Δz_vrp up, inside the robot: draw them on the floor
         # (shifted down by Δz_vrp = g b²), where they read against the footsteps
@@ -204,6 +205,8 @@ class SimView:
         self._com_marker = scene.add_icosphere(
             "/sim/com", radius=0.09, color=(120, 120, 130), visible=False
         )
+        # the point mass is clickable like the humanoid: a push at the CoM ("torso")
+        self._com_marker.on_click(lambda event: self.dashboard.on_body_click("torso", event))
         self._markers_ready = True
 
     def _load_robot_view(self, model: str) -> None:
