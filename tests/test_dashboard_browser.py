@@ -246,8 +246,11 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
         except sync_api.Error:
             pass
     time.sleep(0.5)
-    page.mouse.click(box["x"] + u * box["width"], box["y"] + v * box["height"])
-    assert wait_for(lambda: len(dashboard.loop.session.pushes) == n + 1, timeout=5)
+    for _ in range(3):  # a click during a slow software-GL frame can be missed: retry
+        page.mouse.click(box["x"] + u * box["width"], box["y"] + v * box["height"])
+        if wait_for(lambda: len(dashboard.loop.session.pushes) > n, timeout=3):
+            break
+    assert len(dashboard.loop.session.pushes) == n + 1
     push = dashboard.loop.session.pushes[-1]
     assert push.body == "torso"
     assert push.force[0] > 0.8 * np.linalg.norm(push.force)  # along the view, horizontal
