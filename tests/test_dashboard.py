@@ -322,3 +322,11 @@ def test_app_serves_on_loopback() -> None:
     finally:
         proc.terminate()
         proc.wait(timeout=10)
+
+
+def test_export_with_dragged_footsteps_loads_back(dash: Dashboard) -> None:
+    plan = plan_from_config(dash.config)
+    assert dash.on_footstep_moved(1, plan.steps[1].position + [0.04, -0.02, 0.0])
+    assert dash.on_field_change("dcm", "order", "3")
+    config = loads_preset(dash.on_export(None).decode())
+    assert config == dash.config and config.gait.footsteps is not None
