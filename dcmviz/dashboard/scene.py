@@ -111,32 +111,6 @@ def draw_preview(scene: viser.SceneApi, data: PreviewData) -> None:
     )  # fmt: skip
 
 
-def draw_marker(
-    scene: viser.SceneApi, name: str, position: np.ndarray | None, color: tuple[int, int, int],
-    radius: float = 0.03,
-) -> None:  # fmt: skip
-    """A small sphere at ``position`` (hidden when None)."""
-    if position is None or not np.all(np.isfinite(position)):
-        scene.add_icosphere(name, radius=radius, color=color, visible=False)
-        return
-    scene.add_icosphere(name, radius=radius, color=color, position=tuple(np.asarray(position)))
-
-
-def draw_arrow(
-    scene: viser.SceneApi, name: str, origin: np.ndarray, force: np.ndarray | None,
-    color: tuple[int, int, int],
-) -> None:  # fmt: skip
-    """A force arrow (N) starting at ``origin``; hidden below 0.5 N."""
-    if force is None or float(np.linalg.norm(force)) < 0.5:
-        scene.add_arrows(name, np.zeros((1, 2, 3)), color, visible=False)
-        return
-    tip = np.asarray(origin) + np.asarray(force) / NEWTONS_PER_METRE
-    scene.add_arrows(
-        name, np.array([[origin, tip]]), color, shaft_radius=0.012, head_radius=0.03,
-        head_length=0.06,
-    )  # fmt: skip
-
-
 def draw_step_markers(
     scene: viser.SceneApi, name: str, soles: Sequence[Sole], length: float, width: float,
     color: tuple[int, int, int], opacity: float, lift: float,
