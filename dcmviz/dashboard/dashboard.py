@@ -421,9 +421,15 @@ class Dashboard:
         if recording:
             if self.recorder is not None:
                 return None
-            self.recorder = Recorder()
+            recorder = Recorder()
             path = Path(tempfile.mkdtemp(prefix="dcmviz-")) / (_slug(self.config.name) + ".rrd")
-            self.loop.call(lambda session: self.recorder.start(session, path))
+            try:
+                self.loop.call(lambda session: recorder.start(session, path))
+            except Exception as err:  # noqa: BLE001 - tell the user, keep the session running
+                self.notify(client, "Recording failed", str(err), error=True)
+                self.gui_record.value = False
+                return None
+            self.recorder = recorder
             return None
         recorder, self.recorder = self.recorder, None
         if recorder is None:

@@ -96,7 +96,7 @@ class SimLoop:
 
     # -- commands (any thread) --------------------------------------------------------------------
     def post(self, kind: str, payload: Any = None) -> None:
-        """Queue a command: config, reset, push, play, speed, loop, record, call."""
+        """Queue a command: config, reset, push, play, speed, loop or call."""
         self._commands.put((kind, payload))
 
     def call(self, fn: Callable[[Any], Any], timeout: float = 10.0) -> Any:
