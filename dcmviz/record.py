@@ -134,12 +134,12 @@ class RobotPoser:
     def __init__(self, backend: Any) -> None:
         import pinocchio as pin
 
-        from dcmviz.sim.robots import _source, robots_dir
+        from dcmviz.sim.robots import robot_source, robots_dir
 
         self._pin = pin
         self.robot = backend.robot
         self.backend = backend
-        src = _source(self.robot.name)
+        src = robot_source(self.robot.name)
         root = robots_dir()
         visuals = urdf_visuals(os.path.join(root, src.urdf), root)
         model = self.robot.pin_model

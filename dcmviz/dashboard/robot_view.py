@@ -49,9 +49,9 @@ def load_urdf(model: str) -> yourdfpy.URDF:
 def nominal_angles(model: str) -> dict[str, float]:
     """Nominal joint angles (rad) the simulation locks the upper body at."""
     try:
-        from dcmviz.sim.robots import _source  # the simulation's own nominal posture
+        from dcmviz.sim.robots import robot_source  # the simulation's own nominal posture
 
-        return dict(_source(model).nominal)
+        return dict(robot_source(model).nominal)
     except Exception:  # noqa: BLE001 - drawing must not depend on a private helper
         return {}
 

@@ -53,7 +53,7 @@ def robots_dir() -> str:
 
 
 @dataclass(frozen=True)
-class _RobotSource:
+class RobotSource:
     urdf: str  # path relative to robots_dir()
     legs: tuple[str, ...]  # actuated joints, left leg then right leg, hip to ankle
     nominal: dict[str, float]  # nominal angle of every non-zero joint (locked or not), rad
@@ -79,9 +79,10 @@ def _talos_nominal() -> dict[str, float]:
 _LEG_SUFFIX_G1 = ("hip_pitch", "hip_roll", "hip_yaw", "knee", "ankle_pitch", "ankle_roll")
 
 
-def _source(name: str) -> _RobotSource:
+def robot_source(name: str) -> RobotSource:
+    """Where a robot comes from: its URDF, leg joints, nominal posture, sole placement."""
     if name == "talos":
-        return _RobotSource(
+        return RobotSource(
             urdf="talos_data/robots/talos_reduced.urdf",
             legs=tuple(f"leg_{s}_{i}_joint" for s in SIDES for i in range(1, 7)),
             nominal=_talos_nominal(),
@@ -98,7 +99,7 @@ def _source(name: str) -> _RobotSource:
             nominal[f"{s}_ankle_pitch_joint"] = -0.363
             nominal[f"{s}_elbow_joint"] = 0.6
             nominal[f"{s}_shoulder_roll_joint"] = 0.2 if s == "left" else -0.2
-        return _RobotSource(
+        return RobotSource(
             urdf="g1_description/urdf/g1_29dof_rev_1_0.urdf",
             legs=tuple(f"{s}_{j}_joint" for s in SIDES for j in _LEG_SUFFIX_G1),
             nominal=nominal,
@@ -122,7 +123,7 @@ def _rpy_to_matrix(rpy: np.ndarray) -> np.ndarray:
     return pin.rpy.rpyToMatrix(*rpy)
 
 
-def _edit_urdf(src: _RobotSource, locked: dict[str, float] | None = None) -> str:
+def _edit_urdf(src: RobotSource, locked: dict[str, float] | None = None) -> str:
     """The URDF text with the upper body locked, soles added and geometry removed.
 
     ``locked`` (if given) receives the name and angle (rad) of every joint that was locked."""
@@ -217,7 +218,7 @@ class Robot:
     def __init__(self, name: str) -> None:
         self.spec: RobotSpec = get_spec(name)
         self.name = name
-        src = _source(name)
+        src = robot_source(name)
         self.locked_joints: dict[str, float] = {}  # upper-body joint -> locked angle, rad
         urdf = _edit_urdf(src, self.locked_joints)
         self.urdf_text = urdf
