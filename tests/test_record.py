@@ -72,10 +72,10 @@ def test_runner_rrd_with_mujoco_robot(tmp_path: Path) -> None:
 
 
 def test_urdf_visuals_resolve_package_paths() -> None:
-    from dcmviz.sim.robots import _source, robots_dir
+    from dcmviz.sim.robots import robot_source, robots_dir
 
     root = robots_dir()
-    visuals = urdf_visuals(str(Path(root) / _source("talos").urdf), root)
+    visuals = urdf_visuals(str(Path(root) / robot_source("talos").urdf), root)
     assert len(visuals) > 30
     assert all(Path(v.mesh).is_file() for v in visuals)
     for v in visuals:
