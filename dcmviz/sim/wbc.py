@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import time
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
 import daqp
@@ -143,12 +144,13 @@ class Kinematics:
 # --------------------------------------------------------------------------------------------
 
 
-class Task:
+class Task(ABC):
     weight: float = 1.0
     constant_gram: np.ndarray | None = None  # AᵀA if it does not depend on the state
 
+    @abstractmethod
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray] | None:
-        raise NotImplementedError
+        """(A, b) of the cost ‖A x − b‖², or None when the task is inactive this tick."""
 
 
 class Layout:
@@ -271,15 +273,15 @@ class PostureTask(Task):
 # --------------------------------------------------------------------------------------------
 
 
-class Constraint:
+class Constraint(ABC):
     rows: int
     soft: bool = False  # daqp may violate it if nothing else is feasible
 
+    @abstractmethod
     def compute(
         self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
     ) -> bool:
         """Fill the preallocated rows ``A``, ``lo``, ``up``; return True for equalities."""
-        raise NotImplementedError
 
 
 class FloatingBaseDynamics(Constraint):
