@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from dcm_reference import dense_matrices, phase_coefficients
 
 from dcmviz.config import Config
 from dcmviz.dcm import (
@@ -17,44 +18,15 @@ from dcmviz.dcm import (
 from dcmviz.gait import plan_from_config
 
 
-def dense_A_xi_ref_T(p: Preview) -> np.ndarray:
-    """Eq. (21) built and inverted densely (independent of the O(n) recursion)."""
-    T, b, n = p.durations, p.b, p.n_phases
-    n_wp = n + 1
-    from dcmviz.dcm import alpha_0, beta_0, gamma_0
-
-    a0, b0, g0 = alpha_0(T, b, p.order), beta_0(T, b, p.order), gamma_0(T, b)
-    I3 = np.eye(3)
-    A_gamma = np.kron(np.diag(g0), I3)
-    A_ab = np.zeros((3 * n, 3 * n_wp))
-    for i in range(n):
-        A_ab[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] = a0[i] * I3
-        A_ab[3 * i : 3 * i + 3, 3 * i + 3 : 3 * i + 6] = b0[i] * I3
-    A_bwi = np.kron(np.eye(n, k=1), I3)
-    A_tc = np.zeros((3 * n, 3 * n_wp))
-    A_tc[-3:, -3:] = I3
-    return np.linalg.inv(np.eye(3 * n) - A_bwi @ A_gamma) @ (A_tc + A_bwi @ A_ab)
-
-
-def dense_d(p: Preview, t: float, S: np.ndarray, phi_fa: int, A_T: np.ndarray) -> np.ndarray:
-    """A_xi_ref_φ(t) S_adj A_adj from eqs. (23), (32), (35) with dense 3-D matrices."""
-    from dcmviz.dcm import alpha, beta, gamma
-
+def dense_d(p: Preview, t: float, S: np.ndarray, phi_fa: int, dense: dict) -> np.ndarray:
+    """A_xi_ref_φ(t) S_adj A_adj from eqs. (23), (32), (35) with the dense reference matrices."""
     phi, t_phi = p.phase_at(t)
-    T = p.durations[phi]
-    n_wp = p.n_phases + 1
-    I3 = np.eye(3)
-    A_v0 = np.zeros((3, 3 * n_wp))
-    A_v0[:, 3 * phi : 3 * phi + 3] = I3
-    A_vT = np.zeros((3, 3 * n_wp))
-    A_vT[:, 3 * phi + 3 : 3 * phi + 6] = I3
+    rows = slice(3 * phi, 3 * phi + 3)
+    a, b_, g = phase_coefficients(p.durations[phi], p.b, p.order, t_phi)
     A_phi = (
-        alpha(t_phi, T, p.b, p.order) * A_v0
-        + beta(t_phi, T, p.b, p.order) * A_vT
-        + gamma(t_phi, T, p.b) * A_T[3 * phi : 3 * phi + 3]
-    )
-    A_0 = p.A_xi_ref_0  # eq. (20)
-    A_adj = np.linalg.inv(A_0[3 * phi_fa : 3 * phi_fa + 3] @ S)  # eq. (32)
+        a * dense["A_v_ref_0"][rows] + b_ * dense["A_v_ref_T"][rows] + g * dense["A_xi_ref_T"][rows]
+    )  # eq. (23)
+    A_adj = np.linalg.inv(dense["A_xi_ref_0"][3 * phi_fa : 3 * phi_fa + 3] @ S)  # eq. (32)
     return A_phi @ S @ A_adj  # eq. (35)
 
 
@@ -68,11 +40,11 @@ def test_d_rises_from_exp_minus_tss_over_b_to_one(order):
     t_fa = plan.phase_start(phi_fa)
     t_lift, t_touch = plan.swing_window(k)
     assert t_touch == pytest.approx(t_fa)  # the adjustment instant is the touchdown
-    A_T = dense_A_xi_ref_T(plan.preview)
+    dense = dense_matrices(plan.durations, plan.b, plan.order)
     times = np.linspace(t_lift, t_fa, 15)
     d = [adaptation_factor(plan.preview, t, phi_fa, plan.selection(k)) for t in times]
     for t, value in zip(times, d, strict=True):
-        D = dense_d(plan.preview, t, S3, phi_fa, A_T)
+        D = dense_d(plan.preview, t, S3, phi_fa, dense)
         np.testing.assert_allclose(D, value * np.eye(3), atol=1e-9)  # d_φ(t) I, eq. (35)
         # during single support the VRP stands still, so d = exp((t − t_touch)/b) exactly
         assert value == pytest.approx(math.exp((t - t_fa) / 0.3), rel=1e-9)

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from numpy.polynomial import Polynomial
+from dcm_reference import dense_matrices
 
 from dcmviz.dcm import Preview, continuity_matrix, continuity_waypoints
 
@@ -10,42 +10,12 @@ ORDERS = (0, 1, 3, 5)
 I3 = np.eye(3)
 
 
-def sigma_polynomial(T: float, b: float, order: int) -> Polynomial:
-    """σ(t) = Σ_j b^j f^(j)(t), eq. (8), from Table I as printed."""
-    tau = Polynomial([0.0, 1.0 / T])
-    P = {
-        0: Polynomial([0.0]),
-        1: tau,
-        3: tau**2 * (3 - 2 * tau),
-        5: tau**3 * (10 - 15 * tau + 6 * tau**2),
-    }[order]
-    return sum((b**j * P.deriv(j) for j in range(order + 1)), Polynomial([0.0]))
-
-
-def dense_A_xi_ref_0(durations: np.ndarray, b: float, order: int) -> np.ndarray:
-    """Eq. (20) with the matrices of eqs. (15), (16), (19), inverted densely."""
-    n_phi = len(durations)
-    n_wp = n_phi + 1
-    A_gamma = np.zeros((3 * n_phi, 3 * n_phi))
-    A_alpha_beta = np.zeros((3 * n_phi, 3 * n_wp))
-    for phi, T in enumerate(durations):
-        s, g0 = sigma_polynomial(T, b, order), np.exp(-T / b)
-        rows = slice(3 * phi, 3 * phi + 3)
-        A_gamma[rows, rows] = g0 * I3
-        A_alpha_beta[rows, 3 * phi : 3 * phi + 3] = (1 - s(0) - g0 * (1 - s(T))) * I3
-        A_alpha_beta[rows, 3 * phi + 3 : 3 * phi + 6] = (s(0) - g0 * s(T)) * I3
-    A_BWI = np.kron(np.eye(n_phi, k=1), I3)
-    A_TC = np.zeros((3 * n_phi, 3 * n_wp))
-    A_TC[-3:, -3:] = I3
-    return np.linalg.inv(np.eye(3 * n_phi) - A_gamma @ A_BWI) @ (A_alpha_beta + A_gamma @ A_TC)
-
-
 def dense_B_wp(durations: np.ndarray, b: float, order: int) -> np.ndarray:
     """B_wp of eq. (25), block row by block row."""
     n_wp = len(durations) + 1
     B = np.zeros((3 * n_wp, 3 * n_wp))
     B[0:3, 0:3] = I3  # D1
-    B[3:6] = dense_A_xi_ref_0(durations, b, order)[0:3]  # D2: 3row(A_xi_ref_0, 1)
+    B[3:6] = dense_matrices(durations, b, order)["A_xi_ref_0"][0:3]  # D2: 3row(A_xi_ref_0, 1)
     B[6:-3, 6:-3] = np.eye(3 * (n_wp - 3))  # v_wp,uc
     B[-3:, -3:] = I3  # D3
     return B

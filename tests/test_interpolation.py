@@ -2,29 +2,12 @@
 
 import numpy as np
 import pytest
-from numpy.polynomial import Polynomial
+from dcm_reference import sigma_polynomial, table_i_polynomial
 from scipy.integrate import solve_ivp
 
 from dcmviz.dcm import alpha, alpha_0, beta, beta_0, f, gamma, gamma_0, sigma
 
 ORDERS = (0, 1, 3, 5)
-
-
-def table_i_polynomial(T: float, order: int) -> Polynomial:
-    """f_φ(t) of Table I, written out as printed in the paper, as a polynomial in t."""
-    tau = Polynomial([0.0, 1.0 / T])
-    return {
-        0: Polynomial([0.0]),
-        1: tau,
-        3: tau**2 * (3 - 2 * tau),
-        5: tau**3 * (10 - 15 * tau + 6 * tau**2),
-    }[order]
-
-
-def sigma_polynomial(T: float, b: float, order: int) -> Polynomial:
-    """σ(t) = Σ_j b^j f^(j)(t), eq. (8), by numpy's polynomial differentiation."""
-    P = table_i_polynomial(T, order)
-    return sum((b**j * P.deriv(j) for j in range(order + 1)), Polynomial([0.0]))
 
 
 @pytest.mark.parametrize("order", ORDERS)
