@@ -29,17 +29,7 @@ import viser  # noqa: E402
 
 from dcmviz.config import load_preset  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
-
-CHROMIUM_ARGS = [
-    "--no-sandbox",
-    "--headless",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-component-update",
-    "--disable-sync",
-]
+from dcmviz.dashboard.headless import launch_chromium  # noqa: E402
 
 
 def free_port() -> int:
@@ -101,7 +91,7 @@ def main() -> None:
         f"p95 {np.percentile(lat, 95):.1f} ms"
     )
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=CHROMIUM_ARGS)
+        browser = launch_chromium(p)
         page = browser.new_page(viewport={"width": 1600, "height": 900})
         page.goto(url)
         page.get_by_text("T_ss [s]").wait_for(timeout=60_000)

@@ -270,7 +270,7 @@ class Recorder:
         )
         spec = session.walker.spec
         self._half_size = (0.5 * spec.foot_length_m, 0.5 * spec.foot_width_m, 0.004)
-        nominal = session.nominal_plan()
+        nominal = session.nominal_plan
         rec.log("world/footsteps/planned", self._boxes(nominal.steps, "planned"), static=True)
         backend = session.backend
         if getattr(backend, "name", "") == "mujoco" and hasattr(backend, "robot"):

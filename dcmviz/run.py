@@ -209,7 +209,7 @@ def run_session(
         "wall_time_s": wall,
         "real_time_factor": sim_time / wall if wall > 0 else None,
         "ticks": metrics.ticks,
-        "steps_planned": len(session.nominal_plan().steps) if config.gait.mode == "plan" else None,
+        "steps_planned": len(session.nominal_plan.steps) if config.gait.mode == "plan" else None,
         "steps_completed": int(session.steps_completed),
         "max_dcm_error_m": float(metrics.max_dcm_error_m),
         "final_dcm_error_m": float(metrics.final_dcm_error_m),

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dcmviz.config import Config, Push
-from dcmviz.gait import GaitPlan, plan_from_config
+from dcmviz.gait import GaitPlan
 from dcmviz.sim.specs import get_spec
 from dcmviz.state import MeasuredState, WalkerCommand
 from dcmviz.walker import Walker
@@ -84,9 +84,10 @@ class Session:
         """The walker's current plan (with committed adjustments)."""
         return self.walker.plan
 
+    @property
     def nominal_plan(self) -> GaitPlan:
-        """The preset's plan as previewed (before the robot moves)."""
-        return plan_from_config(self.config)
+        """The plan the walker started from, before any step adjustment."""
+        return self.walker.nominal_plan
 
     def reset(self) -> None:
         state = self.backend.reset()

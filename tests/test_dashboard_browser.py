@@ -22,18 +22,8 @@ sync_api = pytest.importorskip("playwright.sync_api")
 
 from dcmviz.config import Config, loads_preset  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
+from dcmviz.dashboard.headless import CHROMIUM, launch_chromium  # noqa: E402
 
-CHROMIUM = "/usr/bin/chromium"
-ARGS = [
-    "--no-sandbox",
-    "--headless",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-component-update",
-    "--disable-sync",
-]
 PRESETS = Path(__file__).resolve().parents[1] / "presets"
 
 if not os.path.exists(CHROMIUM):
@@ -77,7 +67,7 @@ def app() -> Iterator[tuple[Dashboard, str]]:
 @pytest.fixture(scope="module")
 def browser() -> Iterator:
     with sync_api.sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        b = launch_chromium(p)
         yield b
         b.close()
 

@@ -311,8 +311,8 @@ class SimLoop:
         if target is not None and 0 <= target[0] < len(plan.steps):
             step = plan.steps[target[0]]
             out.append(Footstep(step.side, np.array(target[1], float), step.yaw))
-        nominal = getattr(session.walker, "nominal_plan", None)
-        if nominal is None or len(nominal.steps) != len(plan.steps):
+        nominal = session.nominal_plan
+        if len(nominal.steps) != len(plan.steps):
             return out
         for k in range(session.steps_completed, len(plan.steps)):
             if target is not None and k == target[0]:

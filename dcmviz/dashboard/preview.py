@@ -6,12 +6,12 @@ is cheap to test and to compute off the simulation thread.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from dcmviz.gait import GaitPlan
+from dcmviz.sim.lip import sole_corners
 from dcmviz.sim.specs import RobotSpec
 
 SAMPLES_PER_PHASE = 24
@@ -37,10 +37,7 @@ class Sole:
 
     def corners(self, length: float, width: float) -> np.ndarray:
         """(4, 3) rectangle corners, counter-clockwise."""
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        local = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * [0.5 * length, 0.5 * width]
-        rot = np.array([[c, -s], [s, c]])
-        xy = local @ rot.T + self.position[:2]
+        xy = sole_corners(self.position, self.yaw, length, width)
         return np.column_stack([xy, np.full(4, self.position[2])])
 
 

@@ -156,19 +156,17 @@ class SimView:
                 scene.add_arrows("/sim/f_hat", np.zeros((1, 2, 3)), (0, 0, 0), visible=False)
                 self._fhat_shown = False
         spec = get_spec(snap.robot or self.dashboard.config.robot.model)
-        if last is None or _steps_key(snap.adjusted_steps) != _steps_key(last.adjusted_steps):
-            soles = [Sole(s.side, np.asarray(s.position), s.yaw, i)
-                     for i, s in enumerate(snap.adjusted_steps)]  # fmt: skip
+        for field, color, opacity, lift in (
+            ("adjusted_steps", draw.GHOST_COLOR, 0.25, 0.004),
+            ("realised_steps", draw.REALISED_COLOR, 0.6, 0.008),
+        ):
+            steps = getattr(snap, field)
+            if last is not None and _steps_key(steps) == _steps_key(getattr(last, field)):
+                continue
+            soles = [Sole(s.side, np.asarray(s.position), s.yaw, i) for i, s in enumerate(steps)]
             draw.draw_step_markers(
-                scene, "/sim/adjusted", soles, spec.foot_length_m, spec.foot_width_m,
-                draw.GHOST_COLOR, opacity=0.25, lift=0.004,
-            )  # fmt: skip
-        if last is None or _steps_key(snap.realised_steps) != _steps_key(last.realised_steps):
-            soles = [Sole(s.side, np.asarray(s.position), s.yaw, i)
-                     for i, s in enumerate(snap.realised_steps)]  # fmt: skip
-            draw.draw_step_markers(
-                scene, "/sim/realised", soles, spec.foot_length_m, spec.foot_width_m,
-                draw.REALISED_COLOR, opacity=0.6, lift=0.008,
+                scene, f"/sim/{field.removesuffix('_steps')}", soles, spec.foot_length_m,
+                spec.foot_width_m, color, opacity=opacity, lift=lift,
             )  # fmt: skip
 
     def _follow(self, snap: Snapshot) -> None:
