@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -250,13 +249,6 @@ class GaitPlan:
     def durations(self) -> np.ndarray:
         return self.preview.durations
 
-    @cached_property
-    def final_feet(self) -> dict[str, Footstep]:
-        feet = dict(self.start_feet)
-        for s in self.steps:
-            feet[s.side] = s
-        return feet
-
     def selection(self, k: int) -> np.ndarray:
         """S_adj of eq. (29) for footstep k as scalar weights (n_wp,); the 3-D matrix is kron(·, I)."""
         s = np.zeros(len(self.preview.waypoints))
@@ -271,13 +263,6 @@ class GaitPlan:
             if self.steps[j].side == side:
                 return self.steps[j]
         return self.start_feet[side]
-
-    def feet_at_step(self, k: int) -> dict[str, Footstep]:
-        """Where both feet are planned to be just before footstep k lifts off."""
-        feet = dict(self.start_feet)
-        for s in self.steps[:k]:
-            feet[s.side] = s
-        return feet
 
     def first_affected_phase(self, k: int) -> int:
         """φ_fa: the first phase whose VRP interpolation moves with footstep k (= i_fa,wp − 1)."""

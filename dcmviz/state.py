@@ -81,7 +81,6 @@ class WalkerCommand:
     v_cmd: np.ndarray  # commanded VRP, eq. (24) or (40)/(41)
     f_hat: np.ndarray  # estimated perturbation force, eq. (45)
     v_cmd_rate: np.ndarray | None = None  # (3,) m/s, feed-forward rate of v_cmd (= v̇_ref)
-    com_ref: np.ndarray | None = None  # reference CoM for posture/height regulation (optional)
     phase: int = 0  # current transition phase index (0-based)
     step_index: int = 0  # index of the step being taken (0 = first step), -1 while standing
     done: bool = False  # the plan ended and the robot stands
