@@ -81,9 +81,8 @@ class TickLog:
     error: list[float] = field(default_factory=list)
 
     def __call__(self, session: Session) -> None:
-        cmd = session.last_command
-        self.t.append(float(cmd.t))
-        self.error.append(float(np.linalg.norm(cmd.xi - cmd.xi_ref)))
+        self.t.append(float(session.last_command.t))
+        self.error.append(session.metrics.final_dcm_error_m)  # this tick's |ξ − ξ_ref|
 
 
 def chain(*callbacks: Callable[[Session], None] | None) -> Callable[[Session], None]:
