@@ -14,6 +14,7 @@ import shutil
 import tempfile
 import threading
 import time
+from collections import deque
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +32,7 @@ from dcmviz.config import (
     loads_preset,
 )
 from dcmviz.dashboard import scene as draw
+from dcmviz.dashboard.guard import install_guard
 from dcmviz.dashboard.gui import GEOMETRY_FIELDS, Controls, parse_value
 from dcmviz.dashboard.loop import SimLoop
 from dcmviz.dashboard.plots import LivePlot, PreviewPlots
@@ -124,6 +126,7 @@ class Dashboard:
     ) -> None:
         self._initial_preset = preset  # shown in the preset dropdown (a stem of presets_dir)
         self.server = server
+        install_guard(server, notify=self._notify_client)
         self.config = config  # the last good configuration
         self.version = 0
         self.presets_dir = Path(presets_dir)
@@ -131,7 +134,8 @@ class Dashboard:
         self._gizmos: list[viser.TransformControlsHandle] = []
         self._gizmo_quiet = threading.local()
         self.recorder: Recorder | None = None
-        self.notifications: list[tuple[str, str]] = []  # (title, body) of every notification sent
+        # (title, body) of the latest notifications sent (bounded: a hostile client cannot grow it)
+        self.notifications: deque[tuple[str, str]] = deque(maxlen=200)
         self.loop = SimLoop(session_factory, config, on_event=self._on_sim_event)
         self._setup_scene()
         self._setup_gui()
@@ -518,6 +522,12 @@ class Dashboard:
                 )  # fmt: skip
             except Exception:  # noqa: BLE001 - a client that just closed
                 pass
+
+    def _notify_client(self, client_id: int, title: str, body: str) -> None:
+        """A notification to the client with this id (the guard's refusals)."""
+        client = self.server.get_clients().get(client_id)
+        if client is not None:
+            self.notify(client, title, body, error=True)
 
     def _on_sim_event(self, kind: str, message: str) -> None:
         self.notify(None, "Fall" if kind == "fell" else "Simulation", message, error=True)

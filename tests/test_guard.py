@@ -1,0 +1,187 @@
+"""Hostile and malformed websocket messages, sent through a real websocket client.
+
+Before the guard, one ``n = 1e30`` closed every connection (old and new) with code 1011 until the
+server was restarted.  These tests speak viser's own wire protocol (msgpack, the ``viser-v…``
+subprotocol) to a real server and check that every tab keeps working.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import socket
+import time
+from collections.abc import Iterator
+
+import msgspec
+import pytest
+import zstandard
+
+viser = pytest.importorskip("viser")
+websockets = pytest.importorskip("websockets")
+
+from dcmviz.config import Config  # noqa: E402
+from dcmviz.dashboard import Dashboard  # noqa: E402
+from dcmviz.dashboard.guard import Rejected, clean_value  # noqa: E402
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def served() -> Iterator[tuple[viser.ViserServer, Dashboard]]:
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    d = Dashboard(server, Config().replace(sim={"backend": "lip"}), start=False)
+    assert d.preview.wait(0)
+    yield server, d
+    d.stop()
+    server.stop()
+
+
+def uuid_of(handle) -> str:
+    return handle._impl.uuid  # the test needs the wire id of a control
+
+
+CAMERA = msgspec.msgpack.encode(
+    {
+        "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [3.0, -2.0, 1.5],
+        "fov": 1.0, "near": 0.01, "far": 100.0, "image_height": 600, "image_width": 800,
+        "look_at": [0.0, 0.0, 0.5], "up_direction": [0.0, 0.0, 1.0],
+    }
+)  # fmt: skip  # a browser tab announces its camera first; viser counts it as connected then
+
+
+def update(uuid: str, updates: dict) -> bytes:
+    return msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": uuid, "updates": updates})
+
+
+def decode(frame: bytes) -> list[dict]:
+    """The messages in one server frame (viser's layout: sizes, zstd msgpack, binary buffers)."""
+    n_compressed = int.from_bytes(frame[8:16], "little")
+    n_inner = int.from_bytes(frame[0:8], "little")
+    inner = zstandard.ZstdDecompressor().decompress(
+        frame[16 : 16 + n_compressed], max_output_size=n_inner
+    )
+    return list(msgspec.msgpack.decode(inner)["messages"])
+
+
+async def _session(
+    port: int, frames: list[bytes | str], listen_s: float, seen: list[dict] | None = None
+) -> tuple[int, int | None]:
+    """Connect like a browser tab, send ``frames``, listen; (frames received, close code)."""
+    url = f"ws://127.0.0.1:{port}"
+    received = 0
+    async with websockets.connect(url, subprotocols=[f"viser-v{viser.__version__}"]) as ws:
+        await ws.send(CAMERA)
+        for frame in frames:
+            await ws.send(frame)
+        deadline = time.monotonic() + listen_s
+        try:
+            while (left := deadline - time.monotonic()) > 0:
+                try:
+                    frame = await asyncio.wait_for(ws.recv(), timeout=left)
+                    received += 1
+                    if seen is not None:
+                        seen.extend(decode(frame))
+                except TimeoutError:
+                    break
+        except websockets.ConnectionClosed as closed:
+            return received, closed.rcvd.code if closed.rcvd else -1
+    return received, None
+
+
+def tab(port: int, frames=(), listen_s: float = 1.0, seen: list[dict] | None = None):
+    return asyncio.run(_session(port, list(frames), listen_s, seen))
+
+
+def shown_value(messages: list[dict], uuid: str):
+    """The value a tab displays for a control after applying ``messages`` in order."""
+    value = None
+    for m in messages:
+        if m.get("uuid") == uuid and "value" in m and m["type"] != "GuiUpdateMessage":
+            value = m["value"]  # the control's creation message
+        if m["type"] == "GuiUpdateMessage" and m.get("uuid") == uuid:
+            value = m["updates"].get("value", value)
+    return value
+
+
+def wait_for(condition, timeout: float = 5.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.02)
+    return condition()
+
+
+def test_huge_integer_is_clamped_and_every_tab_keeps_working(served) -> None:
+    server, d = served
+    port = server.get_port()
+    n = d.controls.handles[("gait", "n_steps")]
+    seen: list[dict] = []
+    received, code = tab(port, [update(uuid_of(n), {"value": 1e30})], seen=seen)
+    assert code is None and received > 0
+    # clamped to the control's range (what validation accepts), then applied as a config
+    assert wait_for(lambda: d.config.gait.n_steps == int(n.max))
+    assert n.value == int(n.max) and isinstance(n.value, int)
+    assert shown_value(seen, uuid_of(n)) == int(n.max)  # the sender shows the stored value
+    # a new tab connects, receives the whole state (the same n) and stays open
+    seen = []
+    received, code = tab(port, seen=seen)
+    assert code is None and received > 0
+    assert shown_value(seen, uuid_of(n)) == int(n.max)
+
+
+@pytest.mark.parametrize(
+    "updates",
+    [
+        {"value": float("nan")},
+        {"value": float("inf")},
+        {"value": "abc"},
+        {"value": [1, 2]},
+        {"value": 2.5},  # n is a whole number
+        {"sync_cb": "x"},  # viser would write any attribute onto the handle
+        {"removed": True},
+        {"value": 12, "label": "hijacked"},
+        {},
+    ],
+)
+def test_malformed_values_are_refused_and_state_is_kept(served, updates) -> None:
+    server, d = served
+    n = d.controls.handles[("gait", "n_steps")]
+    before_value, before_label, version = n.value, n.label, d.version
+    received, code = tab(server.get_port(), [update(uuid_of(n), updates)], listen_s=0.5)
+    assert code is None and received > 0
+    assert wait_for(lambda: d.notifications and "refused" in d.notifications[-1][0])
+    assert (n.value, n.label, d.version) == (before_value, before_label, version)
+    # the control still works for everyone afterwards
+    tab(server.get_port(), [update(uuid_of(n), {"value": 7})], listen_s=0.3)
+    assert wait_for(lambda: d.config.gait.n_steps == 7)
+    assert tab(server.get_port(), listen_s=0.3)[1] is None
+
+
+def test_garbage_frames_close_only_the_sender(served) -> None:
+    server, d = served
+    port = server.get_port()
+    for frame in (b"\x00\xff garbage", msgspec.msgpack.encode({"type": "NoSuchMessage"}), "text"):
+        tab(port, [frame], listen_s=0.2)
+    n = d.controls.handles[("gait", "n_steps")]
+    tab(port, [update("no-such-uuid", {"value": 3}), update(uuid_of(n), {"value": 9})], 0.3)
+    assert wait_for(lambda: d.config.gait.n_steps == 9)
+    received, code = tab(port, listen_s=0.5)
+    assert code is None and received > 0
+
+
+def test_clean_value_per_control_kind(served) -> None:
+    _, d = served
+    b = d.controls.handles[("dcm", "b")]
+    assert clean_value(b, 10.0) == b.max and clean_value(b, -3) == b.min
+    order = d.controls.handles[("dcm", "order")]
+    assert clean_value(order, "3") == "3"
+    with pytest.raises(Rejected, match="allowed 0, 1, 3, 5"):
+        clean_value(order, "4")
+    observer = d.controls.handles[("control", "observer")]
+    with pytest.raises(Rejected, match="true or false"):
+        clean_value(observer, 1)
