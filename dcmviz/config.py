@@ -20,7 +20,8 @@ from typing import Any, Literal
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from dcmviz.sim.specs import ROBOT_NAMES, get_spec
+from dcmviz.robots import ROBOT_NAMES, get_spec
+from dcmviz.robots.reach import check_reachable
 
 MAX_PRESET_BYTES = 64 * 1024  # presets are small; larger uploads are refused
 
@@ -42,7 +43,9 @@ class _Section(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
 
 
-class Footstep(_Section):
+class PresetFootstep(_Section):
+    """One explicit footstep of a preset (``[[gait.footsteps]]``)."""
+
     side: Literal["left", "right"]
     position: tuple[float, float, float]
     yaw: float = _field(
@@ -92,11 +95,11 @@ class GaitSection(_Section):
         1.0, symbol="T_stop", unit="s", description="last step → standing", gt=0.1, le=5.0
     )
     first_swing: Literal["left", "right"] = "left"
-    footsteps: tuple[Footstep, ...] | None = None
+    footsteps: tuple[PresetFootstep, ...] | None = None
 
     @field_validator("footsteps")
     @classmethod
-    def _alternate(cls, v: tuple[Footstep, ...] | None) -> tuple[Footstep, ...] | None:
+    def _alternate(cls, v: tuple[PresetFootstep, ...] | None) -> tuple[PresetFootstep, ...] | None:
         if v is None:
             return v
         if len(v) == 0:
@@ -196,9 +199,7 @@ class Config(_Section):
                     f"pushes[{i}].body = {push.body!r}: unknown body for {spec.name}; "
                     f"allowed: {', '.join(spec.bodies)}"
                 )
-        from dcmviz.gait import check_reachable  # the footstep geometry lives in gait
-
-        check_reachable(self)
+        check_reachable(spec, self.gait)
         return self
 
     def replace(self, **sections: Any) -> Config:
@@ -352,7 +353,7 @@ __all__ = [
     "ConfigError",
     "ControlSection",
     "DcmSection",
-    "Footstep",
+    "PresetFootstep",
     "GaitSection",
     "Push",
     "RobotSection",

@@ -16,7 +16,7 @@ import numpy as np
 
 from dcmviz.config import Config, Push
 from dcmviz.gait import GaitPlan
-from dcmviz.sim.specs import get_spec
+from dcmviz.robots import get_spec
 from dcmviz.state import MeasuredState, WalkerCommand
 from dcmviz.walker import Walker
 

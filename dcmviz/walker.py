@@ -44,7 +44,7 @@ from dcmviz.gait import (
     plan_footsteps,
     timing_of,
 )
-from dcmviz.sim.specs import get_spec
+from dcmviz.robots import get_spec
 from dcmviz.state import SIDES, FootTarget, MeasuredState, WalkerCommand
 
 HORIZON_STEPS = 4  # continuous mode: footsteps previewed ahead (terminal constraint beyond them)

@@ -23,7 +23,7 @@ from dcmviz.dashboard import Dashboard  # noqa: E402
 from dcmviz.dashboard.gui import label, slider_range  # noqa: E402
 from dcmviz.dashboard.preview import preview_data  # noqa: E402
 from dcmviz.gait import plan_from_config  # noqa: E402
-from dcmviz.sim.specs import get_spec  # noqa: E402
+from dcmviz.robots import get_spec  # noqa: E402
 
 PRESETS = Path(__file__).resolve().parents[1] / "presets"
 

@@ -10,8 +10,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from dcmviz.robots import SPECS
 from dcmviz.sim.robots import SIDES, load_robot, robots_dir
-from dcmviz.sim.specs import SPECS
 
 ROBOTS = ("talos", "g1")
 

@@ -40,7 +40,7 @@ from dcmviz.dashboard.preview import PHASE_COLORS, PreviewData, preview_data
 from dcmviz.dashboard.render import SimView
 from dcmviz.gait import GaitPlan, plan_footsteps, plan_from_config
 from dcmviz.record import Recorder
-from dcmviz.sim.specs import get_spec
+from dcmviz.robots import get_spec
 
 CURRENT = "(current)"
 

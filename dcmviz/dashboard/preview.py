@@ -11,8 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from dcmviz.gait import GaitPlan
+from dcmviz.robots import RobotSpec
 from dcmviz.sim.lip import sole_corners
-from dcmviz.sim.specs import RobotSpec
 
 SAMPLES_PER_PHASE = 24
 

@@ -18,7 +18,7 @@ from dcmviz.dashboard import scene as draw
 from dcmviz.dashboard.loop import Snapshot
 from dcmviz.dashboard.preview import Sole
 from dcmviz.dashboard.robot_view import RobotView
-from dcmviz.sim.specs import get_spec
+from dcmviz.robots import get_spec
 
 if TYPE_CHECKING:
     from dcmviz.dashboard.dashboard import Dashboard

@@ -17,8 +17,8 @@ import viser.transforms as vtf
 import yourdfpy
 from viser.extras import ViserUrdf
 
+from dcmviz.robots import get_spec
 from dcmviz.sim.robots import robots_dir
-from dcmviz.sim.specs import get_spec
 
 URDFS = {
     "talos": "talos_data/robots/talos_reduced.urdf",

@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from dcmviz import GRAVITY
-from dcmviz.sim.specs import RobotSpec, get_spec
+from dcmviz.robots import RobotSpec, get_spec
 from dcmviz.state import SIDES, MeasuredState, WalkerCommand
 
 E_Z = np.array([0.0, 0.0, 1.0])

@@ -29,7 +29,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from dcmviz.sim.specs import RobotSpec, get_spec
+from dcmviz.robots import RobotSpec, get_spec
 
 SIDES = ("left", "right")
 

@@ -1,0 +1,133 @@
+"""Swing-foot paths: C² in time from lift-off to touchdown, re-targetable mid-swing (step adjustment)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from dcmviz.state import Footstep
+
+SWING_HEIGHT_M = 0.06  # apex of the swing above the higher of lift-off and touchdown
+RETARGET_FREEZE = 0.8  # the swing target is frozen for the last 20 % of single support
+
+
+def _quintic_coefficients(
+    p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, p1: np.ndarray, T: float
+) -> np.ndarray:
+    """Coefficients c (6, d) of p(τ) = Σ c_i τ^i with p, ṗ, p̈ given at 0 and p(T) = p1, ṗ = p̈ = 0."""
+    c0, c1, c2 = p0, v0, 0.5 * a0
+    T2, T3, T4, T5 = T * T, T**3, T**4, T**5
+    d = p1 - (c0 + c1 * T + c2 * T2)
+    e = -(c1 + 2 * c2 * T)
+    f = -(2 * c2)
+    c3 = (10 * d - 4 * e * T + 0.5 * f * T2) / T3
+    c4 = (-15 * d + 7 * e * T - f * T2) / T4
+    c5 = (6 * d - 3 * e * T + 0.5 * f * T2) / T5
+    return np.array([c0, c1, c2, c3, c4, c5])
+
+
+@dataclass(frozen=True)
+class SwingTrajectory:
+    """A swing foot path from lift-off to touchdown: C² in time, re-targetable mid-swing.
+
+    Horizontal position and yaw follow a quintic to the target with zero end velocity and
+    acceleration; the height follows z0 + (z1 − z0) q(s) + h 64 s³ (1 − s)³ (zero velocity and
+    acceleration at both ends, apex h above the straight line at mid-swing).
+    """
+
+    t_lift: float
+    t_touch: float
+    start: np.ndarray  # (3,) lift-off position
+    target: np.ndarray  # (3,) touchdown position
+    yaw_start: float
+    yaw_target: float
+    height: float
+    t_seg: float = 0.0  # start time of the current horizontal segment
+    coeffs: np.ndarray | None = None  # (6, 3): x, y, yaw quintic from t_seg to t_touch
+
+    @staticmethod
+    def between(
+        t_lift: float,
+        t_touch: float,
+        lift: Footstep,
+        touch: Footstep,
+        clearance: float = SWING_HEIGHT_M,
+    ) -> SwingTrajectory:
+        z0, z1 = float(lift.position[2]), float(touch.position[2])
+        height = clearance + 0.5 * abs(z1 - z0)
+        yaw1 = lift.yaw + math.remainder(touch.yaw - lift.yaw, 2 * math.pi)
+        p0 = np.array([lift.position[0], lift.position[1], lift.yaw])
+        p1 = np.array([touch.position[0], touch.position[1], yaw1])
+        c = _quintic_coefficients(p0, np.zeros(3), np.zeros(3), p1, t_touch - t_lift)
+        return SwingTrajectory(
+            t_lift,
+            t_touch,
+            np.array(lift.position, float),
+            np.array(touch.position, float),
+            lift.yaw,
+            yaw1,
+            height,
+            t_lift,
+            c,
+        )
+
+    def retarget(self, t: float, target: np.ndarray) -> SwingTrajectory:
+        """A path that agrees with this one in position, velocity, acceleration at t, ending at target.
+
+        In the last 20 % of the swing the target is frozen (large accelerations otherwise).
+        """
+        if t >= self.t_lift + RETARGET_FREEZE * (self.t_touch - self.t_lift) or t >= self.t_touch:
+            return self
+        target = np.asarray(target, dtype=float)
+        if abs(target[0] - self.target[0]) < 1e-6 and abs(target[1] - self.target[1]) < 1e-6:
+            return self
+        t = max(t, self.t_seg)
+        p, v, a = self._horizontal(t)
+        p1 = np.array([target[0], target[1], self.yaw_target])
+        c = _quintic_coefficients(p, v, a, p1, self.t_touch - t)
+        new_target = np.array([target[0], target[1], self.target[2]])
+        return SwingTrajectory(
+            self.t_lift,
+            self.t_touch,
+            self.start,
+            new_target,
+            self.yaw_start,
+            self.yaw_target,
+            self.height,
+            t,
+            c,
+        )
+
+    def _horizontal(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        tau = min(max(t, self.t_seg), self.t_touch) - self.t_seg
+        c0, c1, c2, c3, c4, c5 = self.coeffs  # Horner on (3,) rows
+        p = c0 + tau * (c1 + tau * (c2 + tau * (c3 + tau * (c4 + tau * c5))))
+        v = c1 + tau * (2 * c2 + tau * (3 * c3 + tau * (4 * c4 + tau * 5 * c5)))
+        a = 2 * c2 + tau * (6 * c3 + tau * (12 * c4 + tau * 20 * c5))
+        if t >= self.t_touch:
+            v, a = np.zeros(3), np.zeros(3)
+        return p, v, a
+
+    def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
+        """Position, velocity, acceleration (3,), yaw and yaw rate at global time t."""
+        T = self.t_touch - self.t_lift
+        s = min(max((t - self.t_lift) / T, 0.0), 1.0)
+        p, v, a = self._horizontal(t)
+        z0, z1 = self.start[2], self.target[2]
+        q = s**3 * (10 - 15 * s + 6 * s * s)
+        dq = 30 * s * s * (1 - s) ** 2
+        ddq = 60 * s * (1 - s) * (1 - 2 * s)
+        bump = 64 * s**3 * (1 - s) ** 3
+        dbump = 192 * s * s * (1 - s) ** 2 * (1 - 2 * s)
+        ddbump = 192 * s * (1 - s) * (2 - 10 * s + 10 * s * s) if 0 < s < 1 else 0.0
+        z = z0 + (z1 - z0) * q + self.height * bump
+        dz = ((z1 - z0) * dq + self.height * dbump) / T
+        ddz = ((z1 - z0) * ddq + self.height * ddbump) / (T * T)
+        if s <= 0.0 or s >= 1.0:
+            dz = ddz = 0.0
+        pos = np.array([p[0], p[1], z])
+        vel = np.array([v[0], v[1], dz])
+        acc = np.array([a[0], a[1], ddz])
+        return pos, vel, acc, float(p[2]), float(v[2])

@@ -1,0 +1,106 @@
+"""Reach of a robot's legs: is a footstep reachable from the stance foot, and the nearest one that is.
+
+Pure geometry in the stance foot's frame (x along its yaw, y to the side of the swinging foot).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from dcmviz.robots.spec import RobotSpec
+from dcmviz.state import OTHER, SIDE_SIGN, Footstep
+
+
+def check_reachable(spec: RobotSpec, gait: Any) -> None:
+    """ValueError naming the first footstep of a preset's ``gait`` section out of the robot's reach.
+
+    Generated footsteps are checked by their parameters; explicit ones one by one, relative to the
+    stance foot (the first from the standing feet at (0, ±step_width/2, 0)).
+    """
+    if gait.footsteps is None:
+        L, w, h = abs(gait.step_length), gait.step_width, abs(gait.step_height)
+        for key, value, limit in (
+            ("step_length", L, spec.max_step_length_m),
+            ("step_width", w, spec.max_step_width_m),
+            ("step_height", h, spec.max_step_height_m),
+        ):
+            if value > limit + 1e-12:
+                raise ValueError(
+                    f"gait.{key} = {getattr(gait, key)}: out of {spec.name}'s reach; "
+                    f"allowed |{key}| ≤ {limit} m"
+                )
+        if w < spec.min_step_width_m:
+            raise ValueError(
+                f"gait.step_width = {w}: the feet of {spec.name} collide; allowed "
+                f"≥ {spec.min_step_width_m} m"
+            )
+        return
+    current = {
+        side: Footstep(side, np.array([0.0, SIDE_SIGN[side] * 0.5 * gait.step_width, 0.0]))
+        for side in SIDE_SIGN
+    }
+    for i, entry in enumerate(gait.footsteps):
+        step = Footstep(entry.side, np.array(entry.position, dtype=float), entry.yaw)
+        problem = reach_problem(spec, current[OTHER[step.side]], step)
+        if problem:
+            raise ValueError(f"gait.footsteps[{i}] = {tuple(step.position.tolist())}: {problem}")
+        current[step.side] = step
+
+
+def reach_problem(spec: RobotSpec, stance: Footstep, step: Footstep) -> str:
+    """'' if ``step`` is reachable from ``stance``, else why not (stance-foot frame)."""
+    d = step.position - stance.position
+    c, s = math.cos(stance.yaw), math.sin(stance.yaw)
+    dx, dy = c * d[0] + s * d[1], -s * d[0] + c * d[1]
+    lateral = SIDE_SIGN[step.side] * dy  # > 0 on the correct side
+    if abs(dx) > spec.max_step_length_m + 1e-9:
+        return (
+            f"out of {spec.name}'s reach from the {stance.side} foot: |Δx| = {abs(dx):.3f} m, "
+            f"allowed ≤ {spec.max_step_length_m} m"
+        )
+    if lateral > spec.max_step_width_m + 1e-9:
+        return (
+            f"out of {spec.name}'s reach from the {stance.side} foot: width {lateral:.3f} m, "
+            f"allowed ≤ {spec.max_step_width_m} m"
+        )
+    if lateral < spec.min_step_width_m - 1e-9:
+        return (
+            f"too close to (or across) the {stance.side} foot: width {lateral:.3f} m, "
+            f"allowed ≥ {spec.min_step_width_m} m"
+        )
+    if abs(d[2]) > spec.max_step_height_m + 1e-9:
+        return (
+            f"height change {d[2]:.3f} m out of {spec.name}'s reach, allowed "
+            f"|Δz| ≤ {spec.max_step_height_m} m"
+        )
+    return ""
+
+
+def clamp_to_reach(
+    spec: RobotSpec, stance: Footstep, step: Footstep, nominal: np.ndarray, max_adjustment: float
+) -> np.ndarray:
+    """Project an adjusted footstep position onto what is allowed (horizontal only).
+
+    The adjustment relative to ``nominal`` is limited to ``max_adjustment`` (m), then the result is
+    clipped to the reach box of the stance foot (no leg crossing, eq. 32 is kept where possible).
+    """
+    p = np.array(step.position, dtype=float)
+    delta = p[:2] - nominal[:2]
+    n = float(np.hypot(*delta))
+    if n > max_adjustment:
+        delta *= max_adjustment / n if n > 0 else 0.0
+    p[:2] = nominal[:2] + delta
+    c, s = math.cos(stance.yaw), math.sin(stance.yaw)
+    d = p[:2] - stance.position[:2]
+    dx, dy = c * d[0] + s * d[1], -s * d[0] + c * d[1]
+    sign = SIDE_SIGN[step.side]
+    dx = min(max(dx, -spec.max_step_length_m), spec.max_step_length_m)
+    lateral = min(max(sign * dy, spec.min_step_width_m), spec.max_step_width_m)
+    dy = sign * lateral
+    p[0] = stance.position[0] + c * dx - s * dy
+    p[1] = stance.position[1] + s * dx + c * dy
+    p[2] = nominal[2]
+    return p
