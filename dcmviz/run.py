@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from dcmviz.cli import BadInput, Parser, positive_seconds
 from dcmviz.config import Config, ConfigError, Push, apply_overrides, load_preset
 from dcmviz.session import Session
 
@@ -27,30 +28,8 @@ RECOVERY_THRESHOLDS_M = (0.01, 0.02)  # DCM error levels reported per push (1 cm
 ADJUSTMENT_REPORTED_M = 1e-3  # footsteps that landed ≥ 1 mm from the plan count as adjusted
 
 
-class BadInput(Exception):
-    """Bad command-line input; the message is the one line printed on stderr."""
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse that reports errors as one line and raises instead of exiting."""
-
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise BadInput(message)
-
-
-def positive_seconds(text: str) -> float:
-    """argparse type: a finite number of seconds > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number (seconds, > 0)") from None
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number of seconds > 0")
-    return value
-
-
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog=PROG, description="Run a dcmviz preset headless and summarise the walk.")
+    p = Parser(prog=PROG, description="Run a dcmviz preset headless and summarise the walk.")
     p.add_argument("preset", help="preset TOML file (see presets/)")
     p.add_argument("--sim", choices=("lip", "mujoco"), help="backend (default: the preset's)")
     p.add_argument(

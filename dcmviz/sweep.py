@@ -44,9 +44,9 @@ from typing import Any
 import numpy as np
 
 from dcmviz import GRAVITY
+from dcmviz.cli import BadInput, Parser, fraction, positive_int, positive_seconds
 from dcmviz.config import Config, ConfigError, load_preset
 from dcmviz.gait import plan_from_config
-from dcmviz.run import BadInput, _Parser, positive_seconds
 from dcmviz.session import Session
 
 PROG = "dcmviz.sweep"
@@ -476,42 +476,22 @@ def ramp_table(result: dict[str, Any]) -> str:
 # CLI
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be ≥ 1")
-    return value
-
-
-def _fraction(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number in [0, 1)") from None
-    if not 0.0 <= value < 1.0:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be in [0, 1)")
-    return value
-
-
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog=PROG, description="Push-recovery envelopes by bisection (see module doc).")
+    p = Parser(prog=PROG, description="Push-recovery envelopes by bisection (see module doc).")
     p.add_argument("preset", help="preset TOML file")
     p.add_argument("--sim", choices=("lip", "mujoco"), default=None, help="default: lip")
-    p.add_argument("--directions", type=_positive_int, default=8, help="evenly spaced, 0 = +x")
+    p.add_argument("--directions", type=positive_int, default=8, help="evenly spaced, 0 = +x")
     p.add_argument("--push-duration", type=positive_seconds, default=0.2, help="s")
-    p.add_argument("--phase", type=_fraction, default=0.5, help="fraction of single support")
-    p.add_argument("--step", type=_positive_int, default=4, help="which step (1-based) is pushed")
+    p.add_argument("--phase", type=fraction, default=0.5, help="fraction of single support")
+    p.add_argument("--step", type=positive_int, default=4, help="which step (1-based) is pushed")
     p.add_argument(
         "--settle-steps", type=positive_seconds, default=3.0, help="step periods after the push"
     )
     p.add_argument("--full", action="store_true", help="walk to the end of the plan instead")
     p.add_argument("--max-impulse", type=positive_seconds, default=150.0, help="bracket top, N·s")
-    p.add_argument("--grid", type=_positive_int, default=6, help="coarse grid points")
-    p.add_argument("--iterations", type=_positive_int, default=7, help="bisection iterations")
-    p.add_argument("--jobs", type=_positive_int, default=os.cpu_count() or 1)
+    p.add_argument("--grid", type=positive_int, default=6, help="coarse grid points")
+    p.add_argument("--iterations", type=positive_int, default=7, help="bisection iterations")
+    p.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1)
     p.add_argument(
         "--controllers",
         default=",".join(CONTROLLERS),
