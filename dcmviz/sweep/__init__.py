@@ -557,7 +557,3 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(table(result))
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
