@@ -1,0 +1,162 @@
+"""Constraints of the whole-body QP: each fills its preallocated rows ``A``, ``lo``, ``up``.
+
+``compute(ctx, cmd, A, lo, up) -> equality``; the solver stacks them into one constraint matrix.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from dcmviz.sim.robots import SIDES, Robot
+from dcmviz.sim.wbc.context import Context
+from dcmviz.sim.wbc.gains import Gains
+from dcmviz.sim.wbc.layout import Layout
+from dcmviz.state import WalkerCommand
+
+INF = 1e30  # a bound daqp reads as none
+
+
+class Constraint(ABC):
+    rows: int
+    soft: bool = False  # daqp may violate it if nothing else is feasible
+
+    @abstractmethod
+    def compute(
+        self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
+    ) -> bool:
+        """Fill the preallocated rows ``A``, ``lo``, ``up``; return True for equalities."""
+
+
+class FloatingBaseDynamics(Constraint):
+    """Unactuated rows: M[:6] q̈ - Σ J_i[:, :6]ᵀ w_i = -h[:6]."""
+
+    rows = 6
+
+    def __init__(self, layout: Layout) -> None:
+        self.layout = layout
+
+    def compute(
+        self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
+    ) -> bool:
+        nv = self.layout.nv
+        A[:, :nv] = ctx.M[:6]
+        for s in SIDES:
+            A[:, self.layout.wrench[s]] = -ctx.sole_jacobian[s][:, :6].T
+        lo[:] = up[:] = -ctx.h[:6]
+        return True
+
+
+class StanceFoot(Constraint):
+    """A supporting foot in contact does not move: J q̈ + J̇ q̇ = -kd J q̇ (else void rows)."""
+
+    rows = 6
+
+    def __init__(self, side: str, layout: Layout, kd: float) -> None:
+        self.side, self.layout, self.kd = side, layout, kd
+
+    def compute(
+        self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
+    ) -> bool:
+        if not ctx.active[self.side]:  # a void, always satisfied row (never a 0 = 0 equality)
+            A[:] = 0.0
+            lo[:], up[:] = -INF, INF
+            return False
+        A[:, : self.layout.nv] = ctx.sole_jacobian[self.side]
+        lo[:] = up[:] = -ctx.sole_drift[self.side] - self.kd * ctx.sole_velocity[self.side]
+        return True
+
+
+class ContactWrenchCone(Constraint):
+    """Friction pyramid |f_x|,|f_y| ≤ μ f_z, f_z ≥ f_min, CoP in the sole, |τ_z| ≤ μ_t f_z.
+
+    Written in the sole frame (w_local = blockdiag(Rᵀ, Rᵀ) w): CoP x = -τ_y/f_z, y = τ_x/f_z.
+    """
+
+    rows = 11
+
+    def __init__(self, side: str, layout: Layout, robot: Robot, gains: Gains) -> None:
+        self.side, self.layout = side, layout
+        mu = gains.friction
+        lx = gains.cop_margin * robot.foot_length / 2
+        ly = gains.cop_margin * robot.foot_width / 2
+        mt = gains.torsion
+        # rows over local [fx fy fz tx ty tz]
+        self.C = np.array(
+            [
+                [1, 0, -mu, 0, 0, 0],
+                [-1, 0, -mu, 0, 0, 0],
+                [0, 1, -mu, 0, 0, 0],
+                [0, -1, -mu, 0, 0, 0],
+                [0, 0, -1, 0, 0, 0],
+                [0, 0, -lx, 0, 1, 0],
+                [0, 0, -lx, 0, -1, 0],
+                [0, 0, -ly, 1, 0, 0],
+                [0, 0, -ly, -1, 0, 0],
+                [0, 0, -mt, 0, 0, 1],
+                [0, 0, -mt, 0, 0, -1],
+            ],
+            dtype=float,
+        )
+        self.C_force, self.C_moment = self.C[:, :3].copy(), self.C[:, 3:].copy()
+        self.min_force = gains.min_normal_force
+
+    def compute(
+        self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
+    ) -> bool:
+        rot_t = ctx.sole_rotation[self.side].T
+        i = self.layout.wrench[self.side].start
+        A[:, i : i + 3] = self.C_force @ rot_t
+        A[:, i + 3 : i + 6] = self.C_moment @ rot_t
+        lo[:] = -INF
+        if ctx.active[self.side]:
+            up[:] = 0.0
+            up[4] = -self.min_force
+        else:  # the wrench is bounded to zero: void rows (no degenerate 0 ≤ 0 constraints)
+            up[:] = INF
+        return False
+
+
+class JointLimits(Constraint):
+    """Joint ranges as soft acceleration bounds: q + q̇ T + ½ q̈ T² stays inside the range
+    shrunk by a margin, i.e. 2 (q_lo - q - q̇ T)/T² ≤ q̈ ≤ 2 (q_hi - q - q̇ T)/T² (soft in daqp,
+    so a joint already beyond its range never makes the QP infeasible)."""
+
+    soft = True
+
+    def __init__(self, robot: Robot, layout: Layout, horizon: float, margin: float) -> None:
+        self.layout, self.horizon = layout, horizon
+        self.rows = robot.nu
+        model = robot.pin_model
+        self.lower = model.lowerPositionLimit[7:] + margin
+        self.upper = model.upperPositionLimit[7:] - margin
+        self.eye = np.eye(robot.nu)
+
+    def compute(
+        self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
+    ) -> bool:
+        T = self.horizon
+        A[:, 6 : self.layout.nv] = self.eye
+        ahead = ctx.q[7:] + ctx.v[6:] * T
+        lo[:] = 2.0 * (self.lower - ahead) / (T * T)
+        up[:] = 2.0 * (self.upper - ahead) / (T * T)
+        return False
+
+
+class TorqueLimits(Constraint):
+    """-τ_max ≤ M[6:] q̈ + h[6:] - Σ J_i[:, 6:]ᵀ w_i ≤ τ_max."""
+
+    def __init__(self, robot: Robot, layout: Layout) -> None:
+        self.layout, self.limit = layout, robot.torque_limit
+        self.rows = robot.nu
+
+    def compute(
+        self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
+    ) -> bool:
+        A[:, : self.layout.nv] = ctx.M[6:]
+        for s in SIDES:
+            A[:, self.layout.wrench[s]] = -ctx.sole_jacobian[s][:, 6:].T
+        lo[:] = -self.limit - ctx.h[6:]
+        up[:] = self.limit - ctx.h[6:]
+        return False

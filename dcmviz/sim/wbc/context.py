@@ -1,0 +1,81 @@
+"""The per-tick state every task and constraint reads: Pinocchio evaluated once at (q, v)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from dcmviz.sim.robots import Robot
+
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+@dataclass
+class Context:
+    """Everything the tasks need about the current state, computed once per tick by Pinocchio."""
+
+    q: np.ndarray
+    v: np.ndarray
+    M: np.ndarray
+    h: np.ndarray  # nle + joint damping
+    com: np.ndarray
+    com_velocity: np.ndarray
+    angular_momentum: np.ndarray  # about the CoM, world axes
+    base_rotation: np.ndarray
+    base_omega: np.ndarray  # world axes
+    sole_position: dict[str, np.ndarray] = field(default_factory=dict)
+    sole_rotation: dict[str, np.ndarray] = field(default_factory=dict)
+    sole_velocity: dict[str, np.ndarray] = field(default_factory=dict)  # (6,) [lin; ang], world
+    sole_jacobian: dict[str, np.ndarray] = field(default_factory=dict)  # (6, nv) LWA
+    sole_drift: dict[str, np.ndarray] = field(default_factory=dict)  # (6,) J̇ v, classical
+    active: dict[str, bool] = field(default_factory=dict)  # wrench variable allowed
+    external_moment: np.ndarray = field(default_factory=lambda: np.zeros(3))  # estimate, N m
+
+
+class Kinematics:
+    """Pinocchio evaluation of a :class:`Context` from (q, v)."""
+
+    def __init__(self, robot: Robot) -> None:
+        self.robot = robot
+        self.model = robot.pin_model
+        self.data = self.model.createData()
+        self._zero = np.zeros(self.model.nv)
+        self._damping = np.zeros(self.model.nv)
+        self._damping[6:] = robot.damping
+
+    def context(self, q: np.ndarray, v: np.ndarray) -> Context:
+        """M, h, CoM, centroidal angular momentum, sole poses/Jacobians/drifts at (q, v)."""
+        m, d = self.model, self.data
+        pin.computeAllTerms(m, d, q, v)
+        pin.computeCentroidalMomentum(m, d, q, v)
+        pin.forwardKinematics(m, d, q, v, self._zero)
+        pin.updateFramePlacements(m, d)
+        x, y, z, w = q[3:7]  # base rotation from the unit quaternion (faster than data.oMi[1])
+        rot = np.array(
+            [
+                [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+            ]
+        )
+        ctx = Context(
+            q=q,
+            v=v,
+            M=d.M.copy(),
+            h=d.nle + self._damping * v,
+            com=d.com[0].copy(),
+            com_velocity=d.vcom[0].copy(),
+            angular_momentum=d.hg.angular.copy(),
+            base_rotation=rot,
+            base_omega=rot @ v[3:6],
+        )
+        for side, fid in self.robot.sole_frames.items():
+            placement = d.oMf[fid]
+            ctx.sole_position[side] = placement.translation.copy()
+            ctx.sole_rotation[side] = placement.rotation.copy()
+            ctx.sole_jacobian[side] = pin.getFrameJacobian(m, d, fid, _LWA)
+            ctx.sole_velocity[side] = pin.getFrameVelocity(m, d, fid, _LWA).vector.copy()
+            ctx.sole_drift[side] = pin.getFrameClassicalAcceleration(m, d, fid, _LWA).vector.copy()
+        return ctx

@@ -1,0 +1,38 @@
+"""Gains, weights and limits of the whole-body QP's tasks and constraints."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass
+class Gains:
+    """Task gains (1/s², 1/s) and weights (dimensionless, on errors in m/s² or rad/s²)."""
+
+    kp_foot: float = 600.0
+    kd_foot: float = 50.0
+    kp_base: float = 300.0
+    kd_base: float = 35.0
+    kp_posture: float = 30.0
+    kd_posture: float = 10.0
+    touchdown_depth: float = 0.01  # m below the footstep for a support foot not yet touching
+    kd_stance: float = 10.0  # stance foot: a = -kd v (kills drift)
+    k_angular_momentum: float = 5.0  # L̇ = -k L
+    k_moment_observer: float = 10.0  # 1/s, external-moment observer gain (0: off)
+    w_force: float = 1000.0
+    w_angular_momentum: float = 0.5
+    w_base: float = 3.0
+    w_foot: float = 100.0
+    w_posture: float = 0.05
+    w_qdd_reg: float = 1e-5
+    w_wrench_reg: float = 1e-4  # on w / m
+    # Joint-range bounds are off by default: on 0.35 m steps the back knee reaches its stop and
+    # MuJoCo's joint limit carries the load (10 steps done, DCM error ≤ 12 cm); with the bounds
+    # the QP refuses the straight knee and Talos falls at t = 3.3 s. Normal steps never get near.
+    joint_limits: bool = False
+    joint_limit_horizon: float = 0.05  # s, look-ahead of the joint-range bounds
+    joint_limit_margin: float = 0.02  # rad kept from each end of a joint's range
+    friction: float = 0.7  # μ of the pyramid (MuJoCo's floor has 1.0)
+    torsion: float = 0.02  # m, |τ_z| ≤ torsion · f_z
+    min_normal_force: float = 5.0  # N on a support foot
+    cop_margin: float = 0.9  # fraction of the half sole used for the CoP

@@ -1,0 +1,138 @@
+"""Tasks of the whole-body QP: ``compute(ctx, cmd) -> (A (k, nx), b (k,))``, cost weight ‖A x - b‖².
+
+Each task is a small object; :class:`~dcmviz.sim.wbc.solver.WholeBodyController` sums them into
+one QP, so adding a task never touches the solver.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+
+import numpy as np
+import pinocchio as pin
+
+from dcmviz.sim.robots import SIDES, Robot
+from dcmviz.sim.wbc.context import Context
+from dcmviz.sim.wbc.layout import Layout
+from dcmviz.state import WalkerCommand
+
+
+def _rot_z(yaw: float) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+class Task(ABC):
+    weight: float = 1.0
+    constant_gram: np.ndarray | None = None  # AᵀA if it does not depend on the state
+
+    @abstractmethod
+    def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray] | None:
+        """(A, b) of the cost ‖A x − b‖², or None when the task is inactive this tick."""
+
+
+class ContactForceTask(Task):
+    """Σ_i f_i = contact_force (the walker's eq. 4 force plus gravity), scaled by 1/m."""
+
+    def __init__(self, layout: Layout, mass: float, weight: float) -> None:
+        self.weight = weight
+        self.A = np.zeros((3, layout.nx))
+        for s in SIDES:
+            self.A[:, layout.wrench[s].start : layout.wrench[s].start + 3] = np.eye(3) / mass
+        self.mass = mass
+        self.constant_gram = self.A.T @ self.A
+
+    def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
+        return self.A, np.asarray(cmd.contact_force, dtype=float) / self.mass
+
+
+class AngularMomentumTask(Task):
+    """Σ_i (p_i - c) × f_i + τ_i = -k L - τ̂_ext (moments about the CoM), scaled by 1/(m·1 m).
+
+    τ̂_ext is the estimated external moment about the CoM (:class:`MomentObserver`), so that a push
+    above or below the CoM is countered by the feet instead of spinning the robot."""
+
+    def __init__(self, layout: Layout, mass: float, k: float, weight: float) -> None:
+        self.layout, self.mass, self.k, self.weight = layout, mass, k, weight
+        self.A = np.zeros((3, layout.nx))
+        for s in SIDES:
+            i = layout.wrench[s].start
+            self.A[:, i + 3 : i + 6] = np.eye(3) / mass
+
+    def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
+        A, inv_m = self.A, 1.0 / self.mass
+        for s in SIDES:
+            i = self.layout.wrench[s].start
+            rx, ry, rz = (ctx.sole_position[s] - ctx.com) * inv_m
+            A[0, i + 1], A[0, i + 2] = -rz, ry  # [r]× f
+            A[1, i], A[1, i + 2] = rz, -rx
+            A[2, i], A[2, i + 1] = -ry, rx
+        return self.A, -(self.k * ctx.angular_momentum + ctx.external_moment) / self.mass
+
+
+class BaseOrientationTask(Task):
+    """ω̇_base = kp log(R_d Rᵀ) - kd ω, R_d = yaw of the mean foot target (base ≡ locked torso)."""
+
+    def __init__(self, layout: Layout, kp: float, kd: float, weight: float) -> None:
+        self.kp, self.kd, self.weight = kp, kd, weight
+        self.A = np.zeros((3, layout.nx))
+        self.constant_gram = np.zeros((layout.nx, layout.nx))
+        self.constant_gram[3:6, 3:6] = np.eye(3)  # A = [0 R 0]: AᵀA = RᵀR = I
+
+    def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
+        y_l, y_r = cmd.feet["left"].yaw, cmd.feet["right"].yaw
+        yaw = math.atan2(math.sin(y_l) + math.sin(y_r), math.cos(y_l) + math.cos(y_r))
+        err = pin.log3(_rot_z(yaw) @ ctx.base_rotation.T)
+        self.A[:, 3:6] = ctx.base_rotation  # ω_world = R ω_local, ω̇_world = R ω̇_local
+        return self.A, self.kp * err - self.kd * ctx.base_omega
+
+
+class FootTask(Task):
+    """Sole acceleration J q̈ + J̇ q̇ = a_ff + kp e + kd ė (position and yaw, roll/pitch flat).
+
+    A foot scheduled as support that does not touch yet tracks a target ``touchdown_depth``
+    below its footstep, so it lands firmly instead of hovering on the floor.
+    """
+
+    def __init__(
+        self, side: str, layout: Layout, kp: float, kd: float, weight: float, depth: float
+    ) -> None:
+        self.side, self.kp, self.kd, self.weight = side, kp, kd, weight
+        self.touchdown_depth = depth
+        self.A = np.zeros((6, layout.nx))
+        self.nv = layout.nv
+
+    def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray] | None:
+        if ctx.active[self.side]:
+            return None  # held by the stance constraint
+        target = cmd.feet[self.side]
+        position = np.array(target.position, dtype=float)
+        if cmd.support[self.side]:  # scheduled down but not touching: keep going down
+            position[2] -= self.touchdown_depth
+        b = np.empty(6)
+        vel = ctx.sole_velocity[self.side]
+        b[:3] = (
+            np.asarray(target.acceleration)
+            + self.kp * (position - ctx.sole_position[self.side])
+            + self.kd * (np.asarray(target.velocity) - vel[:3])
+        )
+        err = pin.log3(_rot_z(target.yaw) @ ctx.sole_rotation[self.side].T)
+        b[3:] = self.kp * err + self.kd * (np.array([0.0, 0.0, target.yaw_rate]) - vel[3:])
+        b -= ctx.sole_drift[self.side]
+        self.A[:, : self.nv] = ctx.sole_jacobian[self.side]
+        return self.A, b
+
+
+class PostureTask(Task):
+    """q̈_j = kp (q_nominal - q) - kd q̇ on the actuated joints."""
+
+    def __init__(self, robot: Robot, layout: Layout, kp: float, kd: float, weight: float) -> None:
+        self.kp, self.kd, self.weight = kp, kd, weight
+        self.A = np.zeros((robot.nu, layout.nx))
+        self.A[:, 6 : layout.nv] = np.eye(robot.nu)
+        self.q_nominal = robot.q_nominal[7:].copy()
+        self.constant_gram = self.A.T @ self.A
+
+    def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
+        return self.A, self.kp * (self.q_nominal - ctx.q[7:]) - self.kd * ctx.v[6:]
