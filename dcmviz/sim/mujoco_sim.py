@@ -106,10 +106,9 @@ class MujocoBackend:
         self._upper_bodies = np.flatnonzero(self.data.xpos[:, 2] > 0.25)
         self.t = 0.0
         self._observer_fresh = True
-        self.wbc._tau = np.zeros(self.robot.nu)
+        self.wbc.reset()
         for k in self.timings:
             self.timings[k] = 0.0
-        self.wbc.timings["qp_build"] = self.wbc.timings["qp_solve"] = 0.0
         self._update()
         return self.measure()
 
