@@ -2,6 +2,7 @@
 
 import sys
 
-from dcmviz.sweep import main
+from dcmviz.sweep.cli import main
 
-sys.exit(main())
+if __name__ == "__main__":
+    sys.exit(main())

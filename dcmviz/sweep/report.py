@@ -1,0 +1,145 @@
+"""Reporting a sweep's result: ratios to tracking, text tables, envelope.json / envelope.csv and
+the polar plot envelope.png."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dcmviz import GRAVITY
+
+
+def ratios(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per direction: each controller's max impulse over tracking's."""
+    by_dir: dict[float, dict[str, float]] = {}
+    for r in rows:
+        by_dir.setdefault(r["direction_deg"], {})[r["controller"]] = r["max_impulse_ns"]
+    out = []
+    for d in sorted(by_dir):
+        row: dict[str, Any] = {"direction_deg": d}
+        base = by_dir[d].get("tracking")
+        for name, value in by_dir[d].items():
+            if name != "tracking":
+                row[f"{name}/tracking"] = value / base if base else None
+        out.append(row)
+    return out
+
+
+def table(result: dict[str, Any]) -> str:
+    """The envelope as a text table (impulses in N·s) with ratios to tracking."""
+    names = result["settings"]["controllers"]
+    rows = result["rows"]
+    by_dir: dict[float, dict[str, dict]] = {}
+    for r in rows:
+        by_dir.setdefault(r["direction_deg"], {})[r["controller"]] = r
+    head = f"{'dir °':>6} " + " ".join(f"{n:>25}" for n in names)
+    ratio_names = [n for n in names if n != "tracking" and "tracking" in names]
+    head += "".join(f" {n + '/trk':>28}" for n in ratio_names)
+    lines = [
+        f"max survived push impulse (N·s), {result['settings']['push_duration_s']} s pushes at "
+        f"{result['push_start_s']:.3f} s ({result['settings']['phase']:.2f} of step "
+        f"{result['settings']['step']}'s single support, {result['swing_side']} foot swinging), "
+        "resolution "
+        f"{result['resolution_ns']:.2f} N·s",
+        head,
+    ]
+    for d in sorted(by_dir):
+        cells = []
+        for n in names:
+            r = by_dir[d].get(n)
+            mark = ("≥" if r["capped"] else "") + ("*" if r["non_monotone_ns"] else "")
+            cells.append(f"{mark}{r['max_impulse_ns']:7.1f} ({r['max_force_n']:6.0f} N)".rjust(25))
+        line = f"{d:6.1f} " + " ".join(cells)
+        base = by_dir[d]["tracking"]["max_impulse_ns"] if "tracking" in names else None
+        for n in ratio_names:
+            v = by_dir[d][n]["max_impulse_ns"]
+            line += f" {(v / base if base else float('nan')):28.2f}"
+        lines.append(line)
+    if any(r["non_monotone_ns"] for r in rows):
+        lines.append("* survival is not monotone here: a larger grid impulse survived (see JSON)")
+    if any(r["capped"] for r in rows):
+        lines.append("≥ survived the whole bracket; raise --max-impulse")
+    lines.append(f"{len(rows)} cells in {result['wall_time_s']:.1f} s wall")
+    return "\n".join(lines)
+
+
+def write_envelope(result: dict[str, Any], out: Path) -> list[Path]:
+    """envelope.json, envelope.csv and the polar plot envelope.png in ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    paths = [out / "envelope.json", out / "envelope.csv", out / "envelope.png"]
+    paths[0].write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
+    with paths[1].open("w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(["direction_deg", "controller", "max_impulse_ns", "max_force_n", "capped"])
+        for r in result["rows"]:
+            w.writerow(
+                [
+                    r["direction_deg"],
+                    r["controller"],
+                    f"{r['max_impulse_ns']:.3f}",
+                    f"{r['max_force_n']:.2f}",
+                    r["capped"],
+                ]
+            )
+    plot_polar(result, paths[2])
+    return paths
+
+
+def plot_polar(result: dict[str, Any], path: Path) -> None:
+    """One closed curve per controller: max impulse (N·s) against push direction."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(6.4, 6.4))
+    ax = fig.add_subplot(projection="polar")
+    styles = {"tracking": "o-", "step_adjustment": "s-", "step_adjustment+observer": "^--"}
+    for name in result["settings"]["controllers"]:
+        rows = sorted(
+            (r for r in result["rows"] if r["controller"] == name),
+            key=lambda r: r["direction_deg"],
+        )
+        theta = np.radians([r["direction_deg"] for r in rows])
+        radius = np.array([r["max_impulse_ns"] for r in rows])
+        theta, radius = np.append(theta, theta[:1]), np.append(radius, radius[:1])
+        ax.plot(theta, radius, styles.get(name, "-"), label=name, lw=1.8, ms=5)
+    ax.set_theta_zero_location("E")  # 0° = +x forward, counter-clockwise = toward +y (left)
+    ax.set_title(
+        f"{result['preset']} ({result['robot']}, {result['backend']}): max push impulse (N·s)\n"
+        f"{result['settings']['push_duration_s']} s push at "
+        f"{result['settings']['phase']:.0%} of step {result['settings']['step']}'s single "
+        f"support ({result['swing_side']} foot swinging); 0° = forward, 90° = left",
+        fontsize=9,
+    )
+    ax.legend(loc="lower left", bbox_to_anchor=(-0.12, -0.12), fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def ramp_table(result: dict[str, Any]) -> str:
+    """The ramp test as a text table: max held force per controller (N and % of weight)."""
+    p = result["push"]
+    lines = [
+        f"ramped push ({p['ramp']} s ramp, held to {p['start'] + p['duration']:.1f} s, "
+        f"direction {np.round(np.array(p['force']) / result['preset_force_n'], 3).tolist()}); "
+        f"preset force {result['preset_force_n']:.0f} N "
+        f"({100 * result['preset_force_n'] / (result['mass_kg'] * GRAVITY):.1f} % of weight)",
+        f"{'controller':>26} {'max held force':>16} {'% weight':>9} {'falls at':>10}",
+    ]
+    for r in result["rows"]:
+        fail = r["first_fall_force_n"]
+        held = ("≥" if r["capped"] else "") + f"{r['max_held_force_n']:.1f} N"
+        lines.append(
+            f"{r['controller']:>26} {held:>16}"
+            f" {r['max_held_force_pct_weight']:8.1f}% "
+            + (f"{fail:9.1f} N" if fail is not None else "     never")
+            + (" (non-monotone)" if r["non_monotone_n"] else "")
+        )
+    lines.append(f"in {result['wall_time_s']:.1f} s wall")
+    return "\n".join(lines)
