@@ -31,6 +31,8 @@ from typing import Any
 import numpy as np
 import rerun as rr
 
+from dcmviz.tick import Tick
+
 LOG_DT_S = 0.01  # sim seconds between logged samples
 TRAIL_SAMPLES = 200  # 3-D trails show the last 2 s
 TRAIL_EVERY = 5  # samples between trail updates
@@ -187,8 +189,10 @@ class Recorder:
         self.stream = rr.RecordingStream("dcmviz", recording_id=str(uuid.uuid4()))
         self.stream.save(self.path)
         self._session = session
-        self._previous = session.on_tick
         self._next_t = -math.inf
+        self._last_t = -math.inf
+        self._offset = 0.0  # session time of the walk's t = 0 (grows at every reset)
+        self.resets = 0
         self._plan_id = None
         self._n_records = -1
         self._trail: dict[str, deque] = {k: deque(maxlen=TRAIL_SAMPLES) for k in ("com", "xi")}
@@ -196,24 +200,15 @@ class Recorder:
         self._poser = None
         self._buf: dict[str, list] = defaultdict(list)
         self._had_target = False
+        self._last_record = None
         self._log_static(session)
-        previous = self._previous
-
-        def chained(s: Any) -> None:
-            if previous is not None:
-                previous(s)
-            self.on_tick(s)
-
-        self._chained = chained
-        session.on_tick = chained
+        self._unsubscribe = session.subscribe(self.on_tick)
 
     def stop(self) -> Path:
         """Detach from the session, flush and close the file; returns its path."""
         if self.stream is None:
             raise RuntimeError("Recorder.stop: not recording")
-        session = self._session
-        if session is not None and session.on_tick is self._chained:
-            session.on_tick = self._previous
+        self._unsubscribe()
         self._flush()
         stream, self.stream, self._session = self.stream, None, None
         stream.flush()
@@ -268,7 +263,7 @@ class Recorder:
             rr.LineStrips3D(np.zeros((2, 2, 3)), colors=[(90, 90, 90)], radii=0.01),
             static=True,
         )
-        spec = session.walker.spec
+        spec = session.spec
         self._half_size = (0.5 * spec.foot_length_m, 0.5 * spec.foot_width_m, 0.004)
         nominal = session.nominal_plan
         rec.log("world/footsteps/planned", self._boxes(nominal.steps, "planned"), static=True)
@@ -312,15 +307,29 @@ class Recorder:
             fill_mode=rr.components.FillMode.Solid if kind != "planned" else None,
         )
 
-    def on_tick(self, session: Any) -> None:
-        """Buffer one decimated sample (called after every tick); rare events are logged now."""
-        cmd = session.last_command
-        t = float(session.t)
-        if self.stream is None or cmd is None or t < self._next_t - 1e-9:
+    def on_tick(self, tick: Tick) -> None:
+        """Buffer one decimated sample (called after every tick); rare events are logged now.
+
+        The ``sim_time`` timeline is the session's clock: when the walk restarts (a reset, a fall,
+        a new preset) its time starts again at 0, and the recording continues after the last
+        sample instead of waiting for the walk's time to pass its earlier maximum.
+        """
+        if self.stream is None:
             return
-        self._next_t = t + self.log_dt_s
+        cmd = tick.command
+        if tick.t < self._last_t - 1e-9:  # the walk restarted
+            self._offset += self._last_t + self.log_dt_s
+            self._next_t = -math.inf
+            self.resets += 1
+            self._plan_id = None
+            self._n_records = -1
+        self._last_t = tick.t
+        if tick.t < self._next_t - 1e-9:
+            return
+        self._next_t = tick.t + self.log_dt_s
+        t = self._offset + tick.t
         rec = self.stream
-        state = session.last_state
+        state = tick.state
         values = {
             "com": np.asarray(state.com, float),
             "xi": np.asarray(cmd.xi, float),
@@ -329,9 +338,7 @@ class Recorder:
             "v_ref": np.asarray(cmd.v_ref, float),
             "v_cmd": np.asarray(cmd.v_cmd, float),
         }
-        forces = session.external_force()
-        f_ext = sum((np.asarray(f, float) for f in forces.values()), np.zeros(3))
-        f_hat = np.asarray(cmd.f_hat, float)
+        f_ext, f_hat = tick.f_ext, tick.f_hat
         com = values["com"]
 
         # per-sample data goes to column buffers, sent in batches (rr.send_columns is far cheaper
@@ -346,7 +353,7 @@ class Recorder:
         buf["points"].append(points)
         buf["arrows"].append(np.array([f_ext, f_hat]) * FORCE_SCALE_M_PER_N)
         buf["com"].append(com)
-        if self._poser is not None:
+        if self._poser is not None and tick.pose is not None:
             buf["robot"].append(self._poser.poses())
         else:
             buf["legs"].append([np.asarray(state.feet[s], float) for s in ("left", "right")])
@@ -361,9 +368,9 @@ class Recorder:
                     f"world/trails/{key}",
                     rr.LineStrips3D([np.array(trail)], colors=[SERIES_COLORS[key]]),
                 )
-        plan = session.plan
-        if id(plan) != self._plan_id:  # a touchdown committed a footstep: new references
-            self._plan_id = id(plan)
+        plan = tick.plan
+        if tick.plan_version != self._plan_id:  # a touchdown committed a footstep: new references
+            self._plan_id = tick.plan_version
             ts = np.linspace(0.0, plan.preview.duration, 400)
             for name, curve, key in (
                 ("dcm", plan.preview.dcm(ts), "xi_ref"),
@@ -374,18 +381,15 @@ class Recorder:
                     rr.LineStrips3D([curve], colors=[SERIES_COLORS[key]]),
                 )
             rec.log("world/footsteps/plan", self._boxes(plan.steps, "plan"))
-        target = session.adjusted_target
+        target = tick.adjusted_step
         if target is not None and self.samples % TRAIL_EVERY == 0:
-            k, position = target
-            rec.log(
-                "world/footsteps/adjusted",
-                self._boxes([plan.steps[k].moved(position)], "adjusted"),
-            )
+            rec.log("world/footsteps/adjusted", self._boxes([target], "adjusted"))
         elif target is None and self._had_target:
             rec.log("world/footsteps/adjusted", rr.Clear(recursive=False))
         self._had_target = target is not None
-        records = session.walker.records
-        if len(records) != self._n_records:
+        records = tick.realised_steps
+        if len(records) != self._n_records or (records and records[-1] is not self._last_record):
+            self._last_record = records[-1] if records else None
             self._n_records = len(records)
             placed = [_Placed(r.position, 0.0) for r in records]
             rec.log("world/footsteps/realised", self._boxes(placed, "realised"))

@@ -1,5 +1,5 @@
 """Headless runner: ``python -m dcmviz.run PRESET [--sim lip|mujoco] [--duration S] [--json PATH]
-[--rrd PATH] [--set section.key=value ...]`` (DESIGN.md, "Headless runner").
+[--rrd PATH] [--csv PATH] [--set section.key=value ...]`` (DESIGN.md, "Headless runner").
 
 Runs a preset without a browser, prints a short summary and optionally writes a JSON result and a
 rerun recording.  Exit status 0 for a completed run (a fall is a result, not an error), 2 for bad
@@ -9,10 +9,11 @@ input with a one-line reason on stderr.
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import math
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,7 @@ import numpy as np
 from dcmviz.cli import BadInput, Parser, positive_seconds
 from dcmviz.config import Config, ConfigError, Push, apply_overrides, load_preset
 from dcmviz.session import Session
+from dcmviz.tick import Tick
 
 PROG = "dcmviz.run"
 RECOVERY_THRESHOLDS_M = (0.01, 0.02)  # DCM error levels reported per push (1 cm, 2 cm)
@@ -37,6 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--json", metavar="PATH", help="write the result as JSON")
     p.add_argument("--rrd", metavar="PATH", help="write a rerun recording (.rrd)")
+    p.add_argument("--csv", metavar="PATH", help="write one row per control tick (CSV)")
     p.add_argument(
         "--set",
         metavar="section.key=value",
@@ -59,20 +62,38 @@ class TickLog:
     t: list[float] = field(default_factory=list)
     error: list[float] = field(default_factory=list)
 
-    def __call__(self, session: Session) -> None:
-        self.t.append(float(session.last_command.t))
-        self.error.append(session.metrics.final_dcm_error_m)  # this tick's |ξ − ξ_ref|
+    def __call__(self, tick: Tick) -> None:
+        self.t.append(tick.t)
+        self.error.append(tick.dcm_error_m)  # this tick's |ξ − ξ_ref|
 
 
-def chain(*callbacks: Callable[[Session], None] | None) -> Callable[[Session], None]:
-    """One ``on_tick`` callback calling several in order (None entries skipped)."""
-    active = [c for c in callbacks if c is not None]
+CSV_VECTORS = ("xi", "xi_ref", "xi_adj", "v_ref", "v_cmd", "com", "f_ext", "f_hat")
+CSV_COLUMNS = ("t", *(f"{v}_{a}" for v in CSV_VECTORS for a in "xyz"), "support")
 
-    def on_tick(session: Session) -> None:
-        for c in active:
-            c(session)
 
-    return on_tick
+class CsvLog:
+    """``--csv``: one row per control tick, written as the walk runs (columns ``CSV_COLUMNS``).
+
+    ``xi``/``xi_ref``/``xi_adj``/``v_ref``/``v_cmd`` are the walker's (eqs. 1, 48, 33, 47, 41),
+    ``com`` the measured CoM after the tick, ``f_ext`` the applied and ``f_hat`` the estimated
+    external force (N), ``support`` the scheduled support (``left``/``right``/``double``).
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self._file = open(path, "w", newline="", encoding="utf-8")  # noqa: SIM115 - closed in close()
+        self._writer = csv.writer(self._file)
+        self._writer.writerow(CSV_COLUMNS)
+
+    def __call__(self, tick: Tick) -> None:
+        c = tick.command
+        row: list[Any] = [repr(tick.t)]
+        for v in (c.xi, c.xi_ref, c.xi_adj, c.v_ref, c.v_cmd, tick.state.com, tick.f_ext, c.f_hat):
+            row += [repr(float(v[0])), repr(float(v[1])), repr(float(v[2]))]
+        row.append(tick.support)
+        self._writer.writerow(row)
+
+    def close(self) -> None:
+        self._file.close()
 
 
 def push_recovery(
@@ -144,6 +165,7 @@ def run_session(
     *,
     duration: float | None = None,
     rrd: str | Path | None = None,
+    csv_path: str | Path | None = None,
     preset_path: str | None = None,
 ) -> dict[str, Any]:
     """Run a session's walk from its start and return the result dict (the ``--json`` content).
@@ -152,7 +174,10 @@ def run_session(
     """
     config = session.config
     log = TickLog()
-    session.on_tick = chain(session.on_tick, log)
+    unsubscribe = [session.subscribe(log)]
+    csv_log = CsvLog(csv_path) if csv_path is not None else None
+    if csv_log is not None:
+        unsubscribe.append(session.subscribe(csv_log))
     recorder = None
     if rrd is not None:
         from dcmviz.record import Recorder
@@ -165,10 +190,14 @@ def run_session(
     finally:
         if recorder is not None:
             recorder.stop()
+        for u in unsubscribe:
+            u()
+        if csv_log is not None:
+            csv_log.close()
     sim_time = float(session.t)
     wall = float(metrics.wall_time_s)
     t, err = np.asarray(log.t), np.asarray(log.error)
-    records = session.walker.records
+    records = session.realised_steps()
     adjustments = [
         {"t": float(a["t"]), "step": int(a["step"]), "dx": a["dx"], "dy": a["dy"]}
         for a in session.step_adjustments
@@ -177,9 +206,9 @@ def run_session(
     result: dict[str, Any] = {
         "preset": config.name,
         "preset_path": preset_path,
-        "backend": session.backend.name,
+        "backend": session.backend_name,
         "robot": config.robot.model,
-        "mass_kg": float(session.backend.mass),
+        "mass_kg": float(session.mass),
         "requested_duration_s": duration,
         "fell": bool(metrics.fell),
         "fall_time_s": metrics.fall_time_s,
@@ -270,13 +299,16 @@ def main(argv: Sequence[str] | None = None) -> int:
             return int(exc.code or 0)
         _check_output(args.json, "--json")
         _check_output(args.rrd, "--rrd")
+        _check_output(args.csv, "--csv")
         config = load_config(args.preset, args.overrides)
         session = Session(config, backend=args.sim)
     except (BadInput, ConfigError, ValueError) as exc:
         message = " ".join(str(exc).split())  # one line, whatever the source
         print(f"{PROG}: error: {message}", file=sys.stderr)
         return 2
-    result = run_session(session, duration=args.duration, rrd=args.rrd, preset_path=args.preset)
+    result = run_session(
+        session, duration=args.duration, rrd=args.rrd, csv_path=args.csv, preset_path=args.preset
+    )
     print(summary(result))
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")

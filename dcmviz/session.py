@@ -1,8 +1,12 @@
 """One walking session: preset → plan → walker → backend, with pushes, history and metrics.
 
-The headless runner, the sweeps and the dashboard are thin shells over this object.  It is not
-thread-safe by itself: one thread (the simulation loop) calls :meth:`Session.step`; others read
-snapshots or post commands through the dashboard's loop.
+The headless runner, the sweeps and the dashboard are thin shells over this object: they call
+:meth:`Session.step`, post commands (:meth:`Session.push`, :meth:`Session.set_config`) and read
+the per-tick record :meth:`Session.tick` (a frozen :class:`~dcmviz.tick.Tick`), or subscribe to
+it (:meth:`Session.subscribe`).  Nothing outside reaches into the walker or the backend.
+
+It is not thread-safe by itself: one thread (the simulation loop) calls :meth:`Session.step`;
+others read ticks or post commands through the dashboard's loop.
 """
 
 from __future__ import annotations
@@ -14,23 +18,32 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dcmviz.backend import Backend
 from dcmviz.config import Config, Push
 from dcmviz.gait import GaitPlan
-from dcmviz.robots import get_spec
+from dcmviz.robots import RobotSpec, get_spec
 from dcmviz.state import MeasuredState, WalkerCommand
+from dcmviz.tick import AppliedPush, Tick
 from dcmviz.walker import Walker
 
+Subscriber = Callable[[Tick], None]
+
+REALISED_IN_TICK = 64  # latest landed footsteps a Tick carries (its cost must not grow with time)
 HISTORY = 4000  # samples kept for live plots (ring buffer)
 HISTORY_KEYS = ("t", "xi", "xi_ref", "xi_adj", "v_cmd", "v_ref", "com", "f_ext", "f_hat")
 
 
-def make_backend(config: Config, backend: str | None = None):
-    """The point-mass or MuJoCo backend for a preset (``backend`` overrides sim.backend)."""
+def make_backend(config: Config, backend: str | None = None) -> Backend:
+    """The point-mass or MuJoCo backend for a preset (``backend`` overrides sim.backend).
+
+    Both stand at the robot's own CoM height: the controller's b may differ from it, and the
+    point mass shows what that does just as the humanoid would.
+    """
     name = backend or config.sim.backend
     if name == "lip":
         from dcmviz.sim.lip import LipBackend
 
-        return LipBackend(config.robot.model, b=config.dcm.b)
+        return LipBackend(config.robot.model)
     if name == "mujoco":
         from dcmviz.sim.mujoco_sim import MujocoBackend
 
@@ -56,33 +69,56 @@ class Session:
         config: Config,
         *,
         backend: str | None = None,
-        on_tick: Callable[[Session], None] | None = None,
+        on_tick: Subscriber | None = None,
     ) -> None:
         self.backend_name = backend or config.sim.backend
-        self.on_tick = on_tick  # e.g. a rerun recorder
-        self.backend = None
+        self._subscribers: list[Subscriber] = [] if on_tick is None else [on_tick]
+        self.backend: Backend | None = None
+        self.config: Config | None = None
         self.set_config(config)
 
     # -- configuration --------------------------------------------------------------------------
-    def set_config(self, config: Config, *, backend: str | None = None) -> None:
-        """Adopt a new (validated) preset: rebuild backend if the robot changed, then reset."""
+    def set_config(self, config: Config, *, backend: str | None = None) -> str:
+        """Adopt a new (validated) preset; returns what that did, in words for a status line.
+
+        A change of gains only (``[control]``: k_ξ, k_F, step adjustment, its limit, observer)
+        acts on the running walk from the next tick: ``"gains changed (walk continues)"``.
+        Anything else restarts the walk (and rebuilds the backend for another robot or backend):
+        ``"restarted: <sections> changed"``.
+        """
         name = backend or self.backend_name
+        old = self.config
+        if old is not None and self.backend is not None and name == self.backend_name:
+            changed = [k for k in ("robot", "gait", "dcm", "sim", "pushes")
+                       if getattr(config, k) != getattr(old, k)]  # fmt: skip
+            if not changed:
+                self.config = config
+                self.walker.config = config
+                self.walker.set_control(config.control, self.last_state)
+                return "gains changed (walk continues)" if config.control != old.control else ""
+        else:
+            changed = ["backend"] if old is not None else []
         rebuild = (
             self.backend is None
             or name != self.backend_name
-            or config.robot.model != self.config.robot.model
-            or (name == "lip" and config.dcm.b != self.config.dcm.b)
+            or config.robot.model != old.robot.model
         )
         self.config = config
         self.backend_name = name
         if rebuild:
             self.backend = make_backend(config, name)
         self.reset()
+        return f"restarted: {', '.join(changed)} changed" if changed else "started"
 
     @property
     def plan(self) -> GaitPlan:
-        """The walker's current plan (with committed adjustments)."""
+        """The walker's current plan (with committed adjustments): the plan walked."""
         return self.walker.plan
+
+    @property
+    def plan_version(self) -> int:
+        """Changes whenever the walked plan does (reset, touchdown commit, replanning)."""
+        return self.walker.plan_version
 
     @property
     def nominal_plan(self) -> GaitPlan:
@@ -91,12 +127,16 @@ class Session:
 
     def reset(self) -> None:
         state = self.backend.reset()
+        version = self.walker.plan_version if getattr(self, "walker", None) else 0
         self.walker = Walker(self.config, mass=self.backend.mass, dt=self.backend.control_dt)
+        self.walker.plan_version = version  # versions keep increasing across resets
         self.walker.reset(state)
         self.last_state: MeasuredState = state
         self.last_command: WalkerCommand | None = None
         self.pushes: list[Push] = list(self.config.pushes)
         self.metrics = Metrics()
+        self._tick: Tick | None = None
+        self._ticks = 0
         self._history = {
             k: np.full((HISTORY,) if k == "t" else (HISTORY, 3), np.nan) for k in HISTORY_KEYS
         }
@@ -133,6 +173,16 @@ class Session:
         return self.last_state.t
 
     @property
+    def spec(self) -> RobotSpec:
+        """The robot's planning facts (feet, reach, push bodies)."""
+        return self.backend.spec
+
+    @property
+    def mass(self) -> float:
+        """kg, of the simulated robot."""
+        return float(self.backend.mass)
+
+    @property
     def fell(self) -> bool:
         return self.metrics.fell
 
@@ -159,9 +209,68 @@ class Session:
             self.metrics.fell = True
             self.metrics.fall_time_s = self.last_state.t
         self._record(command, forces)  # after the fall check: a fall's tick is not a tracking error
-        if self.on_tick is not None:
-            self.on_tick(self)
+        self._ticks += 1
+        self._tick = None
+        if self._subscribers:
+            tick = self.tick()
+            for subscriber in list(self._subscribers):
+                subscriber(tick)
         return command
+
+    # -- the per-tick record --------------------------------------------------------------------
+    def subscribe(self, subscriber: Subscriber) -> Callable[[], None]:
+        """Call ``subscriber(tick)`` after every tick; returns the function that unsubscribes."""
+        self._subscribers.append(subscriber)
+
+        def unsubscribe() -> None:
+            if subscriber in self._subscribers:
+                self._subscribers.remove(subscriber)
+
+        return unsubscribe
+
+    @property
+    def subscribers(self) -> tuple[Subscriber, ...]:
+        return tuple(self._subscribers)
+
+    def tick(self) -> Tick | None:
+        """The record of the last tick (built once, on request); None before the first step."""
+        if self._tick is None and self.last_command is not None:
+            self._tick = self._make_tick()
+        return self._tick
+
+    def _make_tick(self) -> Tick:
+        walker, backend, cmd = self.walker, self.backend, self.last_command
+        pushes = tuple(
+            AppliedPush(body, f.copy(), np.array(backend.body_position(body), float))
+            for body, f in self._applied.items()
+        )
+        adjusted = walker.adjusted_target
+        plan = walker.plan
+        adjusted_step = None
+        if adjusted is not None and 0 <= adjusted[0] < len(plan.steps):
+            adjusted_step = plan.steps[adjusted[0]].moved(np.array(adjusted[1], float))
+        return Tick(
+            index=self._ticks,
+            t=float(cmd.t),
+            robot=self.config.robot.model,
+            backend=backend.name,
+            state=self.last_state,
+            command=cmd,
+            plan=plan,
+            plan_version=walker.plan_version,
+            nominal_plan=walker.nominal_plan,
+            adjusted_index=-1 if adjusted_step is None else int(adjusted[0]),
+            adjusted_step=adjusted_step,
+            realised_steps=walker.records[-REALISED_IN_TICK:],
+            steps_completed=walker.steps_completed,
+            next_step_index=walker.next_step_index,
+            pushes=pushes,
+            f_ext=sum((p.force for p in pushes), np.zeros(3)),
+            f_hat=np.array(cmd.f_hat, float),
+            pose=backend.robot_pose(),
+            fell=self.metrics.fell,
+            done=bool(cmd.done),
+        )
 
     def run(self, duration: float, *, stop_on_fall: bool = True) -> Metrics:
         """Step until ``duration`` s of simulated time have passed (or the robot fell)."""
@@ -209,10 +318,6 @@ class Session:
     def step_adjustments(self) -> list[dict[str, float]]:
         return self.walker.step_adjustments
 
-    @property
-    def adjusted_target(self):
-        """(step index, position) of the footstep being adjusted right now, or None."""
-        return self.walker.adjusted_target
-
-    def realised_steps(self):
+    def realised_steps(self) -> list:
+        """Every footstep that has landed since the reset (:class:`~dcmviz.walker.StepRecord`)."""
         return list(self.walker.records)

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dcmviz import GRAVITY
-from dcmviz.config import Config
+from dcmviz.config import Config, ControlSection
 from dcmviz.dcm import (
     DisturbanceObserver,
     com_force,
@@ -71,12 +71,26 @@ class Walker:
 
     def __init__(self, config: Config, *, mass: float, dt: float) -> None:
         self.config = config
+        self.control: ControlSection = config.control  # gains: may change while walking
         self.spec = get_spec(config.robot.model)
         self.mass = float(mass)
         self.dt = float(dt)
         self.b = config.dcm.b
         self.observer = DisturbanceObserver(self.mass, config.control.k_f)
         self.plan: GaitPlan | None = None
+        self.plan_version = 0  # changes whenever self.plan does
+
+    def set_control(self, control: ControlSection, state: MeasuredState) -> None:
+        """Adopt new gains from the next tick on, without restarting the walk.
+
+        k_ξ, step adjustment on/off and its limit act on the next command; k_F changes the
+        observer's rate; an observer switched on starts from the present momentum (eq. 43), so
+        F̂ starts at zero instead of jumping.
+        """
+        if control.observer and not self.control.observer:
+            self.observer.reset(state.com_velocity)
+        self.observer.k_f = float(control.k_f)
+        self.control = control
 
     # -- lifecycle ------------------------------------------------------------------------------
     def reset(self, state: MeasuredState) -> GaitPlan:
@@ -90,15 +104,22 @@ class Walker:
         else:
             steps = horizon_steps(gait, start, gait.first_swing, HORIZON_STEPS)
         self.plan = build_plan(
-            start, steps, timing_of(gait), self.b, self.config.dcm.order, t0=state.t
+            start,
+            steps,
+            timing_of(gait),
+            self.b,
+            self.config.dcm.order,
+            t0=state.t,
+            start_com=state.com,
         )
+        self.plan_version += 1
         self.nominal_plan = self.plan
         self.placed: dict[str, Footstep] = dict(start)  # where each foot stands (committed)
         self._nominal_feet: dict[str, Footstep] = dict(start)  # continuous mode: nominal cursor
         self.swing: SwingTrajectory | None = None
         self.swing_step: int | None = None
         self.adjusted_target: tuple[int, np.ndarray] | None = None  # (step, position) pending
-        self.records: list[StepRecord] = []
+        self.records: tuple[StepRecord, ...] = ()  # grows at touchdowns; shared by every Tick
         self.steps_completed = 0
         self._last_contact_force = self.mass * GRAVITY * E_Z
         self.observer.reset(state.com_velocity)
@@ -109,7 +130,7 @@ class Walker:
         if self.plan is None:
             self.reset(state)
         t = state.t
-        cfg = self.config.control
+        cfg = self.control
         m, b = self.mass, self.b
 
         contact = self.plan.contact(t)
@@ -214,9 +235,10 @@ class Walker:
         nominal = self.nominal_step_position(k)
         landed = np.array([state.feet[step.side][0], state.feet[step.side][1], step.position[2]])
         self.plan = plan.with_step(k, landed)
+        self.plan_version += 1
         t_touch = plan.swing_window(k)[1]
         self.placed[step.side] = self.plan.steps[k]
-        self.records.append(StepRecord(t_touch, self.steps_completed, step.side, landed, nominal))
+        self.records += (StepRecord(t_touch, self.steps_completed, step.side, landed, nominal),)
         self.steps_completed += 1
         self.swing = None
         self.swing_step = None
@@ -235,6 +257,13 @@ class Walker:
                 landed=step.side,
                 t0=t_touch,
             )
+            self.nominal_plan = self.plan  # the horizon as generated, before any adjustment
+
+    @property
+    def next_step_index(self) -> int:
+        """Index into ``plan.steps`` of the first footstep not yet landed (continuous mode
+        replans at every touchdown, so its plan starts with the next footstep)."""
+        return self.steps_completed if self.config.gait.mode == "plan" else 0
 
     def nominal_step_position(self, k: int) -> np.ndarray:
         """Where footstep k of the current plan was before any adjustment."""

@@ -204,12 +204,12 @@ def test_fall_notifies_and_resets() -> None:
 
 def test_record_returns_rerun_bytes(dash: Dashboard) -> None:
     assert dash.on_record(True, None) is None
-    assert dash.loop.session.on_tick is not None
+    assert len(dash.loop.session.subscribers) == 1
     for _ in range(50):
         dash.loop.session.step()
     data = dash.on_record(False, None)
     assert data is not None and len(data) > 1000 and data[:4] == b"RRF2"
-    assert dash.loop.session.on_tick is None
+    assert dash.loop.session.subscribers == ()
     assert dash.notifications[-1][0] == "Recording ready"
 
 
@@ -241,7 +241,7 @@ def test_dragged_slider_configs_coalesce(dash: Dashboard) -> None:
     resets = []
     session = dash.loop.session
     original = session.set_config
-    session.set_config = lambda *a, **k: (resets.append(a[0]), original(*a, **k))
+    session.set_config = lambda *a, **k: (resets.append(a[0]), original(*a, **k))[1]
     for value in (0.21, 0.22, 0.23, 0.24):
         assert dash.on_field_change("gait", "step_length", value)
     drain(dash)

@@ -31,7 +31,7 @@ def test_lip_recording_loads_back(tmp_path: Path) -> None:
     seen: list[float] = []
     session = Session(config, backend="lip", on_tick=lambda s: seen.append(s.t))
     path = record_session(session, tmp_path / "walk.rrd", 4.0)
-    assert session.on_tick is not None and len(seen) == 800  # the earlier callback still ran
+    assert len(session.subscribers) == 1 and len(seen) == 800  # the earlier subscriber still ran
     assert path.stat().st_size > 50_000
     rows = rows_by_entity(path)
     samples = 400  # 4 s at 10 ms
@@ -52,8 +52,8 @@ def test_start_stop_restores_callback_and_streams_are_separate(tmp_path: Path) -
     assert rec_a.stream is not rec_b.stream
     a.run(1.0)
     b.run(1.0)
-    assert rec_a.stop() == tmp_path / "a.rrd" and a.on_tick is None
-    assert rec_b.stop() == tmp_path / "b.rrd" and b.on_tick is None
+    assert rec_a.stop() == tmp_path / "a.rrd" and a.subscribers == ()
+    assert rec_b.stop() == tmp_path / "b.rrd" and b.subscribers == ()
     assert rows_by_entity(tmp_path / "a.rrd")["/plots/x"] == pytest.approx(100, abs=1)
     assert rows_by_entity(tmp_path / "b.rrd")["/plots/x"] == pytest.approx(20, abs=1)
     with pytest.raises(RuntimeError):

@@ -18,7 +18,10 @@ from typing import Any
 import numpy as np
 
 from dcmviz.config import Config
-from dcmviz.gait import Footstep
+from dcmviz.gait import GaitPlan
+from dcmviz.session import Session
+from dcmviz.state import Footstep
+from dcmviz.tick import Tick
 
 FALL_PAUSE_S = 1.0  # wall seconds the fallen robot stays visible before the reset
 PLAN_END_PAUSE_S = 1.5  # sim seconds standing at the end of a plan before looping
@@ -55,8 +58,11 @@ class Snapshot:
     adjusted_steps: tuple = ()  # Footsteps (gait.Footstep) still to come, as adjusted
     realised_steps: tuple = ()  # Footsteps where the feet really landed
     history: dict[str, np.ndarray] = field(default_factory=dict)
-    plan: Any = None  # the walker's current GaitPlan (continuous mode: the receding horizon)
+    plan: GaitPlan | None = None  # the plan the walker walks (continuous: the receding horizon)
+    plan_version: int = 0  # changes whenever the walked plan does
+    tick: Tick | None = None  # the session's record of the last tick (None right after a reset)
     version: int = 0  # config version this snapshot was simulated with
+    note: str = ""  # what the last config change did, for the status line
     step_time_s: float = 0.0  # mean wall time of one control tick
 
 
@@ -69,7 +75,7 @@ class SimLoop:
 
     def __init__(
         self,
-        session_factory: Callable[[Config], Any],
+        session_factory: Callable[[Config], Session],
         config: Config,
         *,
         on_event: Callable[[str, str], None] | None = None,
@@ -84,6 +90,7 @@ class SimLoop:
         self.falls = 0
         self.resets = 0  # reset commands handled (tests and the status line watch it)
         self.version = 0
+        self.note = ""  # what the last config change did ("gains changed (walk continues)", …)
         self.snapshot = Snapshot()
         self._commands: queue.Queue[tuple[str, Any]] = queue.Queue()
         self._stop = threading.Event()
@@ -99,14 +106,14 @@ class SimLoop:
         """Queue a command: config, reset, push, play, speed, loop or call."""
         self._commands.put((kind, payload))
 
-    def call(self, fn: Callable[[Any], Any], timeout: float = 10.0) -> Any:
+    def call(self, fn: Callable[[Session], Any], timeout: float = 10.0) -> Any:
         """Run ``fn(session)`` on the simulation thread (or here if it is not running)."""
         if self._thread is None or not self._thread.is_alive():
             return fn(self.session)
         done = threading.Event()
         box: dict[str, Any] = {}
 
-        def run(session: Any) -> None:
+        def run(session: Session) -> None:
             try:
                 box["value"] = fn(session)
             except Exception as err:  # noqa: BLE001 - handed back to the caller
@@ -238,8 +245,12 @@ class SimLoop:
             raise ValueError(f"unknown command {kind!r}")
 
     def _apply_config(self, config: Config) -> None:
-        self._fallen_at = None
-        self.session.set_config(config, backend=config.sim.backend)
+        """Gains act on the running walk; anything else restarts it (``note`` says which)."""
+        change = self.session.set_config(config, backend=config.sim.backend)
+        if change.startswith("restarted") or change == "started":
+            self._fallen_at = None
+        if change:
+            self.note = change
 
     # -- snapshots --------------------------------------------------------------------------------
     def real_time_factor(self) -> float:
@@ -249,96 +260,59 @@ class SimLoop:
         return (w[-1][1] - w[0][1]) / (w[-1][0] - w[0][0])
 
     def _publish(self) -> None:
+        """A new snapshot from the session's last :class:`~dcmviz.tick.Tick` (nothing else)."""
         s = self.session
-        backend = s.backend
-        cmd = s.last_command
-        state = s.last_state
-        base_pos = base_wxyz = None
-        joints: dict[str, float] = {}
-        if backend.name == "mujoco":
-            base_pos, base_wxyz = (np.array(v, dtype=float) for v in backend.base_pose())
-            joints = {k: float(v) for k, v in backend.qpos_by_joint().items()}
-        feet = {
-            side: (np.array(state.feet[side], float), float(state.feet_yaw[side]))
-            for side in state.feet
-        }
-        pushes = self._pushes(s, state)
+        tick = s.tick()
         now = time.perf_counter()
         history = self.snapshot.history
         if now - self._last_history >= HISTORY_DT or not self.playing:
             history = self._history_window(s)
             self._last_history = now
-        plan = s.plan
-        adjusted = self._adjusted_steps(s, plan) if plan is not None else []
-        realised = tuple(
-            Footstep(r.side, np.array(r.position, float), 0.0) for r in s.realised_steps()
-        )
-        self.snapshot = Snapshot(
-            t=float(s.t),
-            backend=backend.name,
+        common = dict(
+            backend=s.backend_name,
             robot=s.config.robot.model,
             playing=self.playing,
             speed=self.speed,
             real_time_factor=self.real_time_factor(),
             falls=self.falls,
             fallen=self._fallen_at is not None,
-            done=bool(getattr(cmd, "done", False)),
-            base_position=base_pos,
-            base_wxyz=base_wxyz,
-            joints=joints,
-            com=_arr(state.com),
-            feet=feet,
-            xi=None if cmd is None else _arr(cmd.xi),
-            xi_ref=None if cmd is None else _arr(cmd.xi_ref),
-            xi_adj=None if cmd is None else _arr(cmd.xi_adj),
-            v_cmd=None if cmd is None else _arr(cmd.v_cmd),
-            f_hat=None if cmd is None else _arr(cmd.f_hat),
-            pushes=pushes,
-            adjusted_steps=tuple(adjusted),
-            realised_steps=realised,
             history=history,
-            plan=plan,
             version=self.version,
+            note=self.note,
             step_time_s=float(np.mean(self._step_times)) if self._step_times else 0.0,
+        )
+        if tick is None:  # reset, not stepped yet: the walk's plan, standing
+            self.snapshot = Snapshot(t=float(s.t), plan=s.plan, plan_version=s.plan_version,
+                                     com=_arr(s.last_state.com), **common)  # fmt: skip
+            return
+        pose = tick.pose
+        self.snapshot = Snapshot(
+            t=float(s.t),
+            done=tick.done,
+            base_position=None if pose is None else pose.base_position,
+            base_wxyz=None if pose is None else pose.base_wxyz,
+            joints={} if pose is None else pose.joints,
+            com=tick.state.com,
+            feet={side: (tick.state.feet[side], float(tick.state.feet_yaw[side]))
+                  for side in tick.state.feet},  # fmt: skip
+            xi=tick.command.xi,
+            xi_ref=tick.command.xi_ref,
+            xi_adj=tick.command.xi_adj,
+            v_cmd=tick.command.v_cmd,
+            f_hat=tick.f_hat,
+            pushes=tuple((p.body, p.point, p.force) for p in tick.pushes),
+            adjusted_steps=tick.adjusted_steps(),
+            realised_steps=tuple(
+                Footstep(r.side, r.position, 0.0) for r in tick.realised_steps
+            ),
+            plan=tick.plan,
+            plan_version=tick.plan_version,
+            tick=tick,
+            **common,
         )
 
     @staticmethod
-    def _adjusted_steps(session: Any, plan: Any) -> list[Footstep]:
-        """Footsteps still to come that differ from the nominal plan (the one being adjusted
-        right now first): the ghosts."""
-        out: list[Footstep] = []
-        target = session.adjusted_target
-        if target is not None and 0 <= target[0] < len(plan.steps):
-            step = plan.steps[target[0]]
-            out.append(Footstep(step.side, np.array(target[1], float), step.yaw))
-        nominal = session.nominal_plan
-        if len(nominal.steps) != len(plan.steps):
-            return out
-        for k in range(session.steps_completed, len(plan.steps)):
-            if target is not None and k == target[0]:
-                continue
-            p, q = plan.steps[k].position, nominal.steps[k].position
-            if float(np.linalg.norm(np.asarray(p) - np.asarray(q))) > 1e-3:
-                out.append(plan.steps[k])
-        return out
-
-    @staticmethod
-    def _pushes(session: Any, state: Any) -> tuple[tuple[str, np.ndarray, np.ndarray], ...]:
-        """(body, world point, force) of every force applied this tick."""
-        forces = session.external_force()
-        if not forces:
-            return ()
-        poses = session.backend.body_poses() if session.backend.name == "mujoco" else {}
-        links = session.backend.spec.bodies
-        out = []
-        for body, force in forces.items():
-            pose = poses.get(links.get(body, body))
-            point = np.array(pose[0] if pose is not None else state.com, float)
-            out.append((body, point, np.array(force, float)))
-        return tuple(out)
-
-    @staticmethod
-    def _history_window(session: Any) -> dict[str, np.ndarray]:
+    def _history_window(session: Session) -> dict[str, np.ndarray]:
         hist = session.history()
         t = np.asarray(hist["t"])
         if len(t) == 0:

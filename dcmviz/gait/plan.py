@@ -213,6 +213,7 @@ def build_plan(
     start: str = "stand",
     landed: str | None = None,
     t0: float = 0.0,
+    start_com: np.ndarray | None = None,
 ) -> GaitPlan:
     """Assemble waypoints, durations and phases for ``steps`` and build the preview.
 
@@ -220,6 +221,12 @@ def build_plan(
     standing between the last two feet (D3 + terminal constraint 17).  ``start="transfer"``: t0 is the
     touchdown of foot ``landed`` (already in ``start_feet``); the plan begins with the double support
     that moves the VRP from the other foot onto it.
+
+    ``start_com`` (stand start): the measured CoM of the robot at rest, where the DCM and the
+    standing VRP are at t0 (D1).  The VRP then moves from there to Δz_vrp = g b² above the stance
+    foot through the start phase, so a b that does not match the robot's present height changes
+    it smoothly instead of making the vertical reference jump.  Without it the standing VRP is
+    Δz_vrp above the middle of the feet.
     """
     if len(steps) == 0:
         raise ValueError("steps: a plan needs at least one footstep")
@@ -238,7 +245,11 @@ def build_plan(
 
     if start == "stand":
         stance = feet[OTHER[steps[0].side]]
-        mid0 = 0.5 * (feet["left"].position + feet["right"].position) + dz
+        mid0 = (
+            0.5 * (feet["left"].position + feet["right"].position) + dz
+            if start_com is None
+            else np.asarray(start_com, dtype=float)
+        )
         wps += [mid0, mid0, stance.position + dz]  # w2 is solved below (D2)
         add_phase("start_a", -1, START_SPLIT * timing.t_start)
         add_phase("start_b", -1, (1.0 - START_SPLIT) * timing.t_start)
@@ -297,7 +308,22 @@ def timing_of(gait: GaitSection) -> Timing:
     return Timing(gait.t_ss, gait.t_ds, gait.t_start, gait.t_stop)
 
 
-def plan_from_config(config: Config) -> GaitPlan:
-    """The plan-mode walk of a preset: stand → footsteps → stand."""
+def plan_from_config(
+    config: Config,
+    start_feet: dict[str, Footstep] | None = None,
+    start_com: np.ndarray | None = None,
+) -> GaitPlan:
+    """The plan-mode walk of a preset: stand → footsteps → stand.
+
+    From ``start_feet`` and ``start_com`` where the robot stands (the walker passes what it
+    measures); by default from the feet at (0, ±step_width/2, 0) with the CoM Δz_vrp above them.
+    """
     feet, steps = plan_footsteps(config.gait)
-    return build_plan(feet, steps, timing_of(config.gait), config.dcm.b, config.dcm.order)
+    return build_plan(
+        feet if start_feet is None else start_feet,
+        steps,
+        timing_of(config.gait),
+        config.dcm.b,
+        config.dcm.order,
+        start_com=start_com,
+    )

@@ -88,12 +88,10 @@ class LipBackend:
 
     name = "lip"
 
-    def __init__(
-        self, robot: str = "talos", *, b: float | None = None, control_dt: float = 0.005
-    ) -> None:
+    def __init__(self, robot: str = "talos", *, control_dt: float = 0.005) -> None:
         self.spec: RobotSpec = get_spec(robot)
         self.mass = self.spec.mass_kg
-        self.b = float(b) if b is not None else self.spec.b_nominal_s
+        self.b = self.spec.b_nominal_s  # of the robot standing at its own CoM height
         self.control_dt = float(control_dt)
         self.external: dict[str, np.ndarray] = {}
         self.reset()
@@ -105,7 +103,8 @@ class LipBackend:
         self.feet_yaw = {"left": 0.0, "right": 0.0}
         self.in_contact = {"left": True, "right": True}
         self.t = 0.0
-        self.com = np.array([0.0, 0.0, GRAVITY * self.b * self.b])
+        self._ticks = 0  # the clock counts ticks: t = ticks · dt never drifts off a phase boundary
+        self.com = np.array([0.0, 0.0, self.spec.com_height_m])  # the robot's, not the controller's
         self.com_velocity = np.zeros(3)
         self.applied = self.mass * GRAVITY * E_Z
         self.support_distance = 0.0  # how far the asked VRP lay outside the support polygon
@@ -170,20 +169,26 @@ class LipBackend:
             self.feet[side] = target.position
             self.feet_yaw[side] = target.yaw
             self.in_contact[side] = command.support[side]
-        m, b = self.mass, self.b
-        # the contact VRP of the desired contact force, projected onto the support polygon
+        m = self.mass
+        # the contact force may only push, along the line from its centre of pressure on the
+        # ground to the CoM; the CoP stays inside the support polygon (projected if asked outside)
         f_c = np.asarray(command.contact_force, dtype=float)
-        v_c = self.com - (b * b / m) * (f_c - m * GRAVITY * E_Z)
+        ground = max(self.feet[s][2] for s in SIDES if self.in_contact[s])
+        height = max(self.com[2] - ground, 1e-3)
+        f_z = max(float(f_c[2]), 1e-6 * m * GRAVITY)  # feet cannot pull
+        cop = self.com[:2] - height * f_c[:2] / f_z
         polygon = self.support_polygon()
-        xy, self.support_distance = project_to_polygon(v_c[:2], polygon)
-        v_c = np.array([xy[0], xy[1], v_c[2]])
-        if v_c[2] > self.com[2] + b * b * GRAVITY:  # feet cannot pull: no contact force
-            v_c = self.com + b * b * GRAVITY * E_Z
+        xy, self.support_distance = project_to_polygon(cop, polygon)
+        # f = k (x − p) with k = f_z / height, i.e. ẍ = (x − c)/β² with β² = m height / f_z and
+        # c = p + β² g e_z − β² f_ext / m: the point the CoM is pushed away from (its VRP)
+        beta2 = m * height / f_z
+        b = math.sqrt(beta2)
+        v_c = np.array([xy[0], xy[1], ground]) + beta2 * GRAVITY * E_Z
         # exact solution of ẍ = (x − c(τ))/b² for c(τ) = c0 + ċ τ over the tick (first-order hold
         # of the commanded VRP at the reference's rate, so an undisturbed walk is exactly nominal)
         rate = command.v_cmd_rate if command.v_cmd_rate is not None else np.zeros(3)
         rate = (
-            np.array([rate[0], rate[1], rate[2]]) if self.support_distance == 0.0 else np.zeros(3)
+            np.array([rate[0], rate[1], 0.0]) if self.support_distance == 0.0 else np.zeros(3)
         )
         c0 = v_c - (b * b / m) * self.external_force()
         dt = self.control_dt
@@ -196,13 +201,22 @@ class LipBackend:
         self.applied = (
             m * (self.com_velocity - velocity0) / dt + m * GRAVITY * E_Z - self.external_force()
         )
-        self.t += dt
+        self._ticks += 1
+        self.t = self._ticks * dt
         self._check_fall(polygon)
         return self.measure()
 
     def _check_fall(self, polygon: np.ndarray) -> None:
-        xi = self.com + self.b * self.com_velocity
+        xi = self.com + self.b * self.com_velocity  # the robot's own b (nominal CoM height)
         _, d = project_to_polygon(xi[:2], polygon)
         ground = max(self.feet[s][2] for s in SIDES)
         if d > self.spec.max_step_width_m or self.com[2] - ground < 0.5 * self.spec.com_height_m:
             self._fell = True
+
+    def body_position(self, body: str) -> np.ndarray:
+        """Every push acts at the CoM of the point mass."""
+        return self.com.copy()
+
+    def robot_pose(self) -> None:
+        """The point mass has no links."""
+        return None

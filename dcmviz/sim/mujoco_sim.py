@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 
 from dcmviz import GRAVITY
+from dcmviz.backend import RobotPose
 from dcmviz.sim.robots import SIDES, Robot, load_robot
 from dcmviz.sim.wbc import Context, Gains, MomentObserver, WholeBodyController
 from dcmviz.state import FootTarget, MeasuredState, WalkerCommand
@@ -223,6 +224,15 @@ class MujocoBackend:
         for joint, adr in zip(self.robot.joint_names, self.robot.qpos_adr, strict=True):
             angles[joint] = float(self.data.qpos[adr])
         return angles
+
+    def robot_pose(self) -> RobotPose:
+        """Floating base and every URDF joint angle (for drawing and recording)."""
+        position, wxyz = self.base_pose()
+        return RobotPose(position, wxyz, self.qpos_by_joint())
+
+    def body_position(self, body: str) -> np.ndarray:
+        """World position (m) of the link a push on ``body`` acts on."""
+        return self.data.xpos[self._body_id(body)].copy()
 
     def base_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """Base position (m) and orientation quaternion (w, x, y, z)."""
