@@ -18,6 +18,7 @@ Each tick the walker reads a :class:`~dcmviz.state.MeasuredState` and answers a
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,11 +27,11 @@ from dcmviz import GRAVITY
 from dcmviz.config import Config, ControlSection
 from dcmviz.dcm import (
     DisturbanceObserver,
+    adjustment_gain,
     com_force,
     dcm_adjustment,
     moment_shift,
     reference_shift,
-    step_adjustment,
     vrp_tracking,
 )
 from dcmviz.gait import (
@@ -47,7 +48,20 @@ from dcmviz.gait import (
 from dcmviz.robots import get_spec
 from dcmviz.state import SIDES, FootTarget, MeasuredState, WalkerCommand
 
-HORIZON_STEPS = 4  # continuous mode: footsteps previewed ahead (terminal constraint beyond them)
+HORIZON_STEPS = 4  # continuous mode: at least this many footsteps previewed ahead
+HORIZON_TIME_CONSTANTS = 12.0  # ... and at least 12 b of walking before the terminal constraint
+
+
+def horizon_count(gait, b: float) -> int:
+    """Footsteps in the continuous mode's receding horizon.
+
+    The terminal constraint (eq. 17) at the horizon's end, and the footstep each replanning
+    adds there, reach back to the present through e^(−T_h/b) (eq. 15); with T_h ≥ 12 b that is
+    below 1e-5, so a replanning moves ξ_ref by less than 1e-5 of a step instead of millimetres
+    to centimetres with a fixed count of 4 steps (fast steps, large b).
+    """
+    per_step = gait.t_ss + gait.t_ds
+    return max(HORIZON_STEPS, math.ceil(HORIZON_TIME_CONSTANTS * b / per_step))
 E_Z = np.array([0.0, 0.0, 1.0])
 
 
@@ -102,7 +116,7 @@ class Walker:
         if gait.mode == "plan":
             _, steps = plan_footsteps(gait)
         else:
-            steps = horizon_steps(gait, start, gait.first_swing, HORIZON_STEPS)
+            steps = horizon_steps(gait, start, gait.first_swing, horizon_count(gait, self.b))
         self.plan = build_plan(
             start,
             steps,
@@ -119,6 +133,7 @@ class Walker:
         self.swing: SwingTrajectory | None = None
         self.swing_step: int | None = None
         self.adjusted_target: tuple[int, np.ndarray] | None = None  # (step, position) pending
+        self.recovery_target: tuple[int, np.ndarray] | None = None  # the footstep after it
         self.records: tuple[StepRecord, ...] = ()  # grows at touchdowns; shared by every Tick
         self.steps_completed = 0
         self._last_contact_force = self.mass * GRAVITY * E_Z
@@ -160,26 +175,11 @@ class Walker:
         v_ref = preview.vrp(local) + shift  # eq. (47)
         xi = state.dcm(b)
 
-        xi_adj = xi_ref
-        self.adjusted_target = None
-        k = self.plan.next_modifiable_step(t) if cfg.step_adjustment else None
-        if k is not None:
-            selection = self.plan.selection(k)
-            phi_fa = self.plan.first_affected_phase(k)
-            dv = step_adjustment(preview, phi_fa, selection, xi - xi_ref)  # eq. (32)
-            nominal = self.plan.steps[k]
-            target = clamp_to_reach(
-                self.spec,
-                self.plan.stance_for(k),
-                nominal.moved(nominal.position + dv),
-                nominal.position,
-                cfg.max_step_adjustment,
-            )
-            dv = target - nominal.position
-            xi_adj = xi_ref + dcm_adjustment(preview, local, selection, dv)  # eqs. (33)–(35), (49)
-            self.adjusted_target = (k, target)
-            if self.swing_step == k:
-                self.swing = self.swing.retarget(t, target)
+        if local >= preview.duration:  # the plan has ended: stand on its final VRP (D3)
+            xi_ref = v_ref = preview.waypoints[-1] + shift
+        xi_adj = xi_ref + self._adjust(t, local, xi - xi_ref) if cfg.step_adjustment else xi_ref
+        if not cfg.step_adjustment:
+            self.adjusted_target, self.recovery_target = None, None
 
         v_cmd = vrp_tracking(v_ref, xi, xi_adj, cfg.k_xi, b)  # eq. (41) (eq. 24 if ξ_adj = ξ_ref)
         force = com_force(state.com, v_cmd, m, b)  # eq. (4)
@@ -208,10 +208,77 @@ class Walker:
             v_ref=v_ref,
             v_cmd=v_cmd,
             f_hat=f_hat,
-            v_cmd_rate=preview.vrp_velocity(local),
+            v_cmd_rate=preview.vrp_velocity(local) if local < preview.duration else np.zeros(3),
             phase=contact.phase,
             step_index=self.steps_completed,
             done=self.done(t),
+        )
+
+    def _adjust(self, t: float, local: float, xi_error: np.ndarray) -> np.ndarray:
+        """Δξ_adj of eqs. (33)–(35), (49) for the DCM error ξ̃ = ξ − ξ_ref, re-targeting the swing.
+
+        The next modifiable footstep k takes Δv_k = A_adj ξ̃ (eq. 32), limited to the reach
+        (``clamp_to_reach``).  While its swing is frozen (the last 20 % of single support) it
+        keeps the target the foot is already going to.  What footstep k cannot take, the part of
+        ξ̃ its Δv_k does not cancel at its own adjustment instant (eq. 31),
+        r = ξ̃ − Δv_k / A_adj,k, goes to the footstep after it, by the same eq. (32).  Every term
+        is continuous in time, and at k's touchdown the committed footstep makes the new
+        ξ_ref carry exactly the Δξ of footstep k (the next one's term is unchanged): ξ_adj and the
+        commanded VRP do not jump when a push saturates or outlasts an adjustment.
+        """
+        plan, preview = self.plan, self.plan.preview
+        self.adjusted_target = self.recovery_target = None
+        k = plan.next_modifiable_step(t)
+        if k is None:
+            return np.zeros(3)
+        target = self._target(k, xi_error, plan.stance_for(k))
+        if self.swing_step == k:
+            if self.swing.frozen(t):
+                target = np.array([*self.swing.target[:2], plan.steps[k].position[2]])
+            else:
+                self.swing = self.swing.retarget(t, target)
+        self.adjusted_target = (k, target)
+        dv = target - plan.steps[k].position
+        selection = plan.selection(k)
+        delta = dcm_adjustment(preview, local, selection, dv)
+        residual = xi_error - dv / self._gain(k)
+        residual[2] = 0.0
+        k2 = k + 1
+        if k2 < len(plan.steps) and float(residual @ residual) > 1e-18:
+            stance = plan.steps[k].moved(target)  # footstep k where it will land
+            target2 = self._target(k2, residual, stance)
+            dv2 = target2 - plan.steps[k2].position
+            delta = delta + dcm_adjustment(preview, local, plan.selection(k2), dv2)
+            self.recovery_target = (k2, target2)
+        return delta
+
+    def _gain(self, k: int) -> float:
+        """A_adj of footstep k (eq. 32) as a scalar.
+
+        The paper's condition (eq. 31) asks the adjustment to cancel ξ̃ at the start of the first
+        phase footstep k moves.  The closing footstep of a plan only moves the final standing
+        point, with weight 1/2, and barely moves the DCM at that instant (A_adj of 9–16, 3.5e7
+        for order 0 with a long T_stop): a small error would saturate it at the reach limit.
+        For it the condition is taken where the plan ends, where ξ_ref_T equals the final VRP
+        (terminal constraint, eq. 17): A_adj = 2.
+        """
+        plan = self.plan
+        selection = plan.selection(k)
+        if plan.is_closing_step(k):
+            return 1.0 / float(plan.preview.W_xi_ref_T[-1] @ selection)
+        return adjustment_gain(plan.preview, plan.first_affected_phase(k), selection)
+
+    def _target(self, k: int, xi_error: np.ndarray, stance: Footstep) -> np.ndarray:
+        """Where footstep k lands for the DCM error ``xi_error``: eq. (32), horizontal, reachable."""
+        nominal = self.plan.steps[k]
+        dv = self._gain(k) * np.asarray(xi_error, dtype=float)
+        dv[2] = 0.0
+        return clamp_to_reach(
+            self.spec,
+            stance,
+            nominal.moved(nominal.position + dv),
+            nominal.position,
+            self.control.max_step_adjustment,
         )
 
     def done(self, t: float) -> bool:
@@ -245,7 +312,10 @@ class Walker:
         if self.config.gait.mode == "continuous":
             self._nominal_feet[step.side] = Footstep(step.side, nominal, step.yaw)
             steps = horizon_steps(
-                self.config.gait, self._nominal_feet, OTHER[step.side], HORIZON_STEPS
+                self.config.gait,
+                self._nominal_feet,
+                OTHER[step.side],
+                horizon_count(self.config.gait, self.b),
             )
             self.plan = build_plan(
                 dict(self.placed),

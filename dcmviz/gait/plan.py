@@ -106,6 +106,10 @@ class GaitPlan:
                 return self.steps[j]
         return self.start_feet[side]
 
+    def is_closing_step(self, k: int) -> bool:
+        """True for the last footstep of a plan, whose only waypoint is the final standing VRP."""
+        return k == len(self.steps) - 1 and self.phase_kind[-1] == "stop"
+
     def first_affected_phase(self, k: int) -> int:
         """φ_fa: the first phase whose VRP interpolation moves with footstep k (= i_fa,wp − 1)."""
         return min(self.step_waypoint_weights[k]) - 1

@@ -73,12 +73,16 @@ class SwingTrajectory:
             c,
         )
 
+    def frozen(self, t: float) -> bool:
+        """True in the last 20 % of the swing, where the target no longer moves."""
+        return t >= self.t_lift + RETARGET_FREEZE * (self.t_touch - self.t_lift)
+
     def retarget(self, t: float, target: np.ndarray) -> SwingTrajectory:
         """A path that agrees with this one in position, velocity, acceleration at t, ending at target.
 
         In the last 20 % of the swing the target is frozen (large accelerations otherwise).
         """
-        if t >= self.t_lift + RETARGET_FREEZE * (self.t_touch - self.t_lift) or t >= self.t_touch:
+        if self.frozen(t) or t >= self.t_touch:
             return self
         target = np.asarray(target, dtype=float)
         if abs(target[0] - self.target[0]) < 1e-6 and abs(target[1] - self.target[1]) < 1e-6:
