@@ -1,0 +1,179 @@
+"""One visual model of each humanoid, shared by the dashboard (viser) and the recorder (rerun).
+
+Built from the robot's full URDF through Pinocchio's visual :class:`pinocchio.GeometryModel`
+(mesh paths resolve into example-robot-data's ``share/example-robot-data/robots``).  A
+:class:`RobotVisual` holds every visual mesh once (vertices in its own frame, colour, the link
+it hangs on) and poses them from a :class:`~dcmviz.backend.RobotPose`: floating base plus joint
+angles by URDF joint name, any joint not given at the robot's nominal posture.
+
+    visual = robot_visual("talos")
+    poses = visual.in_world(tick.pose)   # poses.position[i], poses.wxyz[i] place visual.meshes[i]
+
+No viser and no rerun here: each shell draws the same meshes with its own public API.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+import trimesh
+from scipy.spatial.transform import Rotation
+
+from dcmviz.backend import RobotPose
+from dcmviz.sim.robots import robot_source, robots_dir
+
+
+@dataclass(frozen=True)
+class VisualMesh:
+    """One visual of a URDF link, in its own frame (the pose places that frame)."""
+
+    name: str  # unique within the robot (Pinocchio's geometry name, e.g. "torso_2_link_0")
+    link: str  # URDF link it is attached to
+    vertices: np.ndarray  # (V, 3) float32, m, URDF scale applied
+    faces: np.ndarray  # (F, 3) uint32
+    normals: np.ndarray  # (V, 3) float32, unit vertex normals
+    color: tuple[int, int, int, int]  # RGBA 0-255 from the URDF material
+    ancestors: tuple[str, ...]  # frame names from ``link`` up to the root (for click → body)
+
+
+@dataclass(frozen=True)
+class MeshPoses:
+    """Where each mesh of a :class:`RobotVisual` is: row i places ``meshes[i]``."""
+
+    position: np.ndarray  # (n, 3) m
+    wxyz: np.ndarray  # (n, 4) unit quaternions (w, x, y, z)
+
+
+def _mesh_of(geometry: pin.GeometryObject) -> trimesh.Trimesh | None:
+    """The triangles of a visual: its mesh file (scaled) or a primitive; None if unsupported."""
+    shape = geometry.geometry
+    kind = type(shape).__name__
+    if kind.startswith("BVH") or kind == "Convex":
+        mesh = trimesh.load(geometry.meshPath, force="mesh")
+        mesh.apply_scale(np.asarray(geometry.meshScale, float))
+        return mesh
+    if kind == "Cylinder":
+        return trimesh.creation.cylinder(radius=shape.radius, height=2.0 * shape.halfLength)
+    if kind == "Box":
+        return trimesh.creation.box(extents=2.0 * np.asarray(shape.halfSide, float))
+    if kind == "Sphere":
+        return trimesh.creation.icosphere(subdivisions=2, radius=shape.radius)
+    return None
+
+
+def _ancestors(model: pin.Model, frame_id: int) -> tuple[str, ...]:
+    names = []
+    while frame_id > 0:
+        frame = model.frames[frame_id]
+        names.append(frame.name)
+        if frame.parentFrame == frame_id:
+            break
+        frame_id = frame.parentFrame
+    return tuple(names)
+
+
+def urdf_path(model_name: str) -> str:
+    """The robot's full URDF (the one the simulation edits), absolute."""
+    return os.path.join(robots_dir(), robot_source(model_name).urdf)
+
+
+class RobotVisual:
+    """The visual meshes of one robot and the kinematics that place them."""
+
+    def __init__(self, model_name: str) -> None:
+        self.model_name = model_name
+        path = urdf_path(model_name)
+        share = os.path.dirname(os.path.dirname(robots_dir()))  # package://example-robot-data/…
+        self.model = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())
+        geometry = pin.buildGeomFromUrdf(
+            self.model, path, pin.GeometryType.VISUAL, package_dirs=[share]
+        )
+        meshes, keep = [], []
+        for i, obj in enumerate(geometry.geometryObjects):
+            mesh = _mesh_of(obj)
+            if mesh is None or len(mesh.faces) == 0:
+                continue
+            rgba = np.clip(np.asarray(obj.meshColor, float), 0.0, 1.0)
+            meshes.append(
+                VisualMesh(
+                    name=obj.name,
+                    link=self.model.frames[obj.parentFrame].name,
+                    vertices=np.asarray(mesh.vertices, np.float32),
+                    faces=np.asarray(mesh.faces, np.uint32),
+                    normals=np.asarray(mesh.vertex_normals, np.float32),
+                    color=tuple(int(round(255 * c)) for c in rgba),
+                    ancestors=_ancestors(self.model, obj.parentFrame),
+                )
+            )
+            keep.append(i)
+        self.meshes: tuple[VisualMesh, ...] = tuple(meshes)
+        self._geometry = geometry
+        self._keep = np.array(keep, dtype=int)
+        self._data = self.model.createData()
+        self._geometry_data = pin.GeometryData(geometry)
+        self._lock = threading.Lock()  # the dashboard and a recorder may pose from two threads
+        nominal = robot_source(model_name).nominal
+        self.joint_names: tuple[str, ...] = tuple(
+            self.model.names[j] for j in range(2, self.model.njoints)
+        )  # 0 is the universe, 1 the floating base
+        self._idx_q = np.array([self.model.joints[j].idx_q for j in range(2, self.model.njoints)])
+        self._nq = np.array([self.model.joints[j].nq for j in range(2, self.model.njoints)])
+        self._q0 = pin.neutral(self.model)
+        self._set_joints(self._q0, {j: nominal.get(j, 0.0) for j in self.joint_names})
+
+    # -- posing --------------------------------------------------------------------------------
+    def in_world(self, pose: RobotPose) -> MeshPoses:
+        """World pose of every mesh for a floating base and joint angles."""
+        return self._poses(self._q(pose.joints, pose.base_position, pose.base_wxyz))
+
+    def in_base(self, joints: Mapping[str, float]) -> MeshPoses:
+        """Pose of every mesh relative to the floating base (base at the origin, unrotated)."""
+        return self._poses(self._q(joints, np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])))
+
+    def _q(self, joints: Mapping[str, float], position: np.ndarray, wxyz: np.ndarray) -> np.ndarray:
+        """Pinocchio's configuration: [p, quat xyzw, joints]; joints not given stay nominal."""
+        q = self._q0.copy()
+        q[:3] = position
+        w, x, y, z = np.asarray(wxyz, float) / np.linalg.norm(wxyz)
+        q[3:7] = (x, y, z, w)
+        self._set_joints(q, joints)
+        return q
+
+    def _set_joints(self, q: np.ndarray, joints: Mapping[str, float]) -> None:
+        for name, idx, nq in zip(self.joint_names, self._idx_q, self._nq, strict=True):
+            angle = joints.get(name)
+            if angle is None:
+                continue
+            if nq == 1:
+                q[idx] = angle
+            elif nq == 2:  # continuous joint: (cos, sin)
+                q[idx : idx + 2] = (np.cos(angle), np.sin(angle))
+
+    def _poses(self, q: np.ndarray) -> MeshPoses:
+        with self._lock:
+            pin.forwardKinematics(self.model, self._data, q)
+            pin.updateGeometryPlacements(
+                self.model, self._data, self._geometry, self._geometry_data
+            )
+            placements = self._geometry_data.oMg
+            T = np.array([placements[int(i)].homogeneous for i in self._keep])
+        xyzw = Rotation.from_matrix(T[:, :3, :3]).as_quat()
+        return MeshPoses(position=T[:, :3, 3].copy(), wxyz=np.roll(xyzw, 1, axis=1))
+
+
+_VISUALS: dict[str, RobotVisual] = {}
+_VISUALS_LOCK = threading.Lock()
+
+
+def robot_visual(model_name: str) -> RobotVisual:
+    """The visual model of ``model_name``, built once per process (meshes load in about 1 s)."""
+    with _VISUALS_LOCK:
+        visual = _VISUALS.get(model_name)
+        if visual is None:
+            visual = _VISUALS[model_name] = RobotVisual(model_name)
+        return visual

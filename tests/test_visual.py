@@ -1,0 +1,70 @@
+"""The shared robot visual model: meshes load, and a RobotPose places them where MuJoCo has the links."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from dcmviz.backend import RobotPose
+from dcmviz.config import Config, load_preset
+from dcmviz.session import Session
+from dcmviz.visual import robot_visual
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize(
+    ("model", "config"),
+    [
+        ("talos", Config().replace(sim={"backend": "mujoco"})),
+        ("g1", load_preset(ROOT / "presets" / "g1_walk.toml").replace(sim={"backend": "mujoco"})),
+    ],
+)
+def test_meshes_sit_on_the_simulated_links(model: str, config: Config) -> None:
+    """Mesh frames against MuJoCo's own forward kinematics of the same state (an independent
+    model built from the edited URDF), after a second of walking."""
+    visual = robot_visual(model)
+    assert len(visual.meshes) > 30
+    for mesh in visual.meshes:
+        assert mesh.vertices.shape[1] == 3 and len(mesh.faces) > 0
+        assert mesh.faces.max() < len(mesh.vertices)
+    session = Session(config)
+    session.run(1.0)
+    pose = session.tick().pose
+    backend = session.backend
+    mujoco.mj_kinematics(backend.model, backend.data)  # xpos of the current qpos
+    links = backend.body_poses()
+    poses = visual.in_world(pose)
+    np.testing.assert_allclose(np.linalg.norm(poses.wxyz, axis=1), 1.0, atol=1e-12)
+    # every visual of these URDFs sits at its link's origin (origin xyz = rpy = 0)
+    checked = 0
+    for i, mesh in enumerate(visual.meshes):
+        if mesh.link not in links:  # a static link MuJoCo fused into its parent
+            continue
+        p, q = links[mesh.link]
+        np.testing.assert_allclose(poses.position[i], p, atol=1e-6, err_msg=mesh.name)
+        assert min(np.abs(poses.wxyz[i] - q).max(), np.abs(poses.wxyz[i] + q).max()) < 1e-6
+        checked += 1
+    assert checked >= 20
+
+
+def test_in_base_is_the_world_pose_without_the_base() -> None:
+    visual = robot_visual("talos")
+    angle = 0.4
+    c, s = np.cos(angle / 2), np.sin(angle / 2)
+    joints = {"leg_left_4_joint": 0.7, "arm_right_2_joint": -0.3}
+    pose = RobotPose(np.array([0.3, -0.2, 1.0]), np.array([c, 0.0, 0.0, s]), joints)
+    world, base = visual.in_world(pose), visual.in_base(joints)
+    R = np.array(
+        [[np.cos(angle), -np.sin(angle), 0.0], [np.sin(angle), np.cos(angle), 0.0], [0, 0, 1]]
+    )
+    np.testing.assert_allclose(world.position, base.position @ R.T + pose.base_position, atol=1e-12)
+    # bending the left knee moves the left ankle links and nothing else
+    bent = visual.in_base({"leg_left_4_joint": 0.7})
+    straight = visual.in_base({"leg_left_4_joint": 0.0})
+    moved = {m.link for m, a, b in zip(visual.meshes, bent.position, straight.position, strict=True)
+             if np.linalg.norm(a - b) > 1e-6}  # fmt: skip
+    assert moved == {"leg_left_5_link", "leg_left_6_link"}  # the shank rotates about its origin
