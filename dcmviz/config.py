@@ -199,6 +199,9 @@ class Config(_Section):
                     f"pushes[{i}].body = {push.body!r}: unknown body for {spec.name}; "
                     f"allowed: {', '.join(spec.bodies)}"
                 )
+        problem = spec.height_problem(self.dcm.b)
+        if problem:
+            raise ValueError(f"dcm.b = {self.dcm.b}: {problem}")
         check_reachable(spec, self.gait)
         return self
 

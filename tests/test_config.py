@@ -4,6 +4,7 @@ from pathlib import Path
 
 import pytest
 
+from dcmviz import GRAVITY
 from dcmviz.config import (
     Config,
     ConfigError,
@@ -15,6 +16,7 @@ from dcmviz.config import (
     loads_preset,
     save_preset,
 )
+from dcmviz.robots import SPECS
 
 PRESETS = sorted(Path(__file__).parents[1].joinpath("presets").glob("*.toml"))
 
@@ -112,8 +114,8 @@ def test_bad_toml_and_missing_file(tmp_path):
 
 
 def test_overrides_use_toml_literals():
-    c = apply_overrides(Config(), ["control.observer=false", "dcm.b=0.31", 'robot.model="g1"'])
-    assert (c.control.observer, c.dcm.b, c.robot.model) == (False, 0.31, "g1")
+    c = apply_overrides(Config(), ["control.observer=false", "dcm.b=0.25", 'robot.model="g1"'])
+    assert (c.control.observer, c.dcm.b, c.robot.model) == (False, 0.25, "g1")
     for bad, word in [
         ("dcm.b", "section.key=value"),
         ("b=0.3", "section.key"),
@@ -138,3 +140,41 @@ def test_field_info_for_gui_labels():
     info = field_info("gait", "t_ss")
     assert info["symbol"] == "T_ss" and info["unit"] == "s" and info["gt"] == 0.1
     assert field_info("dcm", "b")["ge"] == 0.15
+
+
+def test_b_outside_the_robots_heights_is_refused_with_height_and_ranges():
+    with pytest.raises(ConfigError) as err:
+        config_from_dict({"dcm": {"b": 0.33}})
+    assert str(err.value) == (
+        "dcm.b = 0.33: asks for a CoM height of 1.068 m; talos walks at 0.720–0.900 m, "
+        "i.e. b from 0.271 to 0.303 s"
+    )
+    for robot, b in (("talos", 0.26), ("g1", 0.30), ("g1", 0.2)):
+        with pytest.raises(ConfigError) as err:
+            config_from_dict({"robot": {"model": robot}, "dcm": {"b": b}})
+        message = str(err.value)
+        for word in ("dcm.b", f"{b}", f"{GRAVITY * b * b:.3f} m", robot, "walks at", "b from"):
+            assert word in message, message
+
+
+@pytest.mark.parametrize("robot", sorted(SPECS))
+def test_b_range_follows_the_robots_com_heights(robot):
+    spec = SPECS[robot]
+    lo, hi = spec.b_range_s
+    # Δz_vrp = g b² is the CoM height (eq. 1): the ends of b's range give the ends of the heights
+    assert GRAVITY * lo**2 == pytest.approx(spec.min_com_height_m, abs=1e-12)
+    assert GRAVITY * hi**2 == pytest.approx(spec.max_com_height_m, abs=1e-12)
+    assert spec.min_com_height_m < spec.com_height_m < spec.max_com_height_m
+    assert lo < spec.b_nominal_s < hi
+    for b in (lo, hi, spec.b_nominal_s):  # a b control over this range never offers a refused b
+        assert config_from_dict({"robot": {"model": robot}, "dcm": {"b": b}}).dcm.b == b
+    for b in (lo - 1e-4, hi + 1e-4):
+        with pytest.raises(ConfigError, match="dcm.b"):
+            config_from_dict({"robot": {"model": robot}, "dcm": {"b": b}})
+
+
+@pytest.mark.parametrize("path", PRESETS, ids=lambda p: p.stem)
+def test_every_presets_b_is_a_height_its_robot_walks_at(path):
+    config = load_preset(path)
+    spec = SPECS[config.robot.model]
+    assert spec.min_com_height_m <= GRAVITY * config.dcm.b**2 <= spec.max_com_height_m

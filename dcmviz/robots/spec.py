@@ -23,12 +23,44 @@ class RobotSpec:
     max_step_width_m: float  # reach: largest lateral distance between the feet
     min_step_width_m: float  # feet closer than this collide
     max_step_height_m: float  # |Δz| of one step
+    # mean horizontal sole speed over single support (lift-off → touchdown distance / T_ss)
+    max_swing_speed_m_s: float
+    min_com_height_m: float  # lowest CoM height above the soles the robot walks at
+    max_com_height_m: float  # highest (knees still bent enough to walk)
     bodies: dict[str, str]  # push target name -> link name in the URDF
 
     @property
     def b_nominal_s(self) -> float:
         """b = sqrt(Δz_vrp / g) with Δz_vrp the nominal CoM height (eq. 1)."""
         return (self.com_height_m / GRAVITY) ** 0.5
+
+    @property
+    def com_height_range_m(self) -> tuple[float, float]:
+        """CoM heights above the soles (m) the robot walks at."""
+        return (self.min_com_height_m, self.max_com_height_m)
+
+    @property
+    def b_range_s(self) -> tuple[float, float]:
+        """(b_min, b_max) in s: b = sqrt(Δz_vrp / g) with Δz_vrp = the CoM height (eq. 1).
+
+        The range a b control offers for this robot.
+        """
+        return (
+            (self.min_com_height_m / GRAVITY) ** 0.5,
+            (self.max_com_height_m / GRAVITY) ** 0.5,
+        )
+
+    def height_problem(self, b: float) -> str:
+        """'' if Δz_vrp = g b² is a CoM height the robot walks at, else why not."""
+        height = GRAVITY * b * b
+        lo, hi = self.com_height_range_m
+        if lo - 1e-9 <= height <= hi + 1e-9:
+            return ""
+        b_lo, b_hi = self.b_range_s
+        return (
+            f"asks for a CoM height of {height:.3f} m; {self.name} walks at "
+            f"{lo:.3f}–{hi:.3f} m, i.e. b from {b_lo:.3f} to {b_hi:.3f} s"
+        )
 
 
 SPECS: dict[str, RobotSpec] = {
@@ -43,6 +75,13 @@ SPECS: dict[str, RobotSpec] = {
         max_step_width_m=0.50,
         min_step_width_m=0.14,
         max_step_height_m=0.15,
+        # 2 × 0.45 m (behind the stance foot → in front of it) in 0.5 s
+        max_swing_speed_m_s=1.8,
+        # CoM above the soles in a squat with upright torso and flat feet (hip = ankle = −knee/2):
+        # 0.877 m in half-sitting (knee 0.86 rad); straight legs 0.931 m; 0.90 m at knee ≈ 0.65,
+        # 0.72 m at knee ≈ 1.75 rad (ankle −0.87, limit −1.31)
+        min_com_height_m=0.72,
+        max_com_height_m=0.90,
         bodies={
             "torso": "torso_2_link",
             "pelvis": "base_link",
@@ -61,6 +100,12 @@ SPECS: dict[str, RobotSpec] = {
         max_step_width_m=0.40,
         min_step_width_m=0.10,
         max_step_height_m=0.10,
+        # 2 × 0.30 m in 0.4 s
+        max_swing_speed_m_s=1.5,
+        # 0.670 m with knee 0.669 rad; straight legs 0.698 m; 0.68 m at knee ≈ 0.55,
+        # 0.56 m at knee ≈ 1.52 rad (ankle −0.76, limit −0.87)
+        min_com_height_m=0.56,
+        max_com_height_m=0.68,
         bodies={
             "torso": "torso_link",
             "pelvis": "pelvis",
