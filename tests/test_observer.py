@@ -76,3 +76,19 @@ def test_moment_shift_leans_further_away_from_a_pull_above_the_com():
     np.testing.assert_allclose(
         moment_shift(tau, m, GRAVITY), [0.0, -h * force / (m * GRAVITY), 0.0]
     )
+
+
+def test_update_before_reset_behaves_as_reset_at_rest():
+    """A new observer is usable at once: it starts as if reset with zero CoM velocity."""
+    m, k_f, dt = 60.0, 8.0, 1e-3
+    fresh, reset = DisturbanceObserver(m, k_f), DisturbanceObserver(m, k_f)
+    reset.reset(np.zeros(3))
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        velocity, f_known = rng.normal(size=3), rng.normal(size=3) * 10
+        np.testing.assert_array_equal(
+            fresh.update(velocity, f_known, dt), reset.update(velocity, f_known, dt)
+        )
+    # the first sample after construction: p̂_0 = 0, so F̂_0 = k_F m ẋ_0 (eq. 45)
+    obs = DisturbanceObserver(m, k_f)
+    np.testing.assert_allclose(obs.update(np.array([0.1, 0, 0]), np.zeros(3), dt), [48.0, 0, 0])

@@ -15,6 +15,9 @@ class DisturbanceObserver:
     so F̂ follows the true perturbation with first-order dynamics of rate k_F (eq. 44).
     ``F_known`` is every force on the CoM that the controller knows: the commanded contact force
     plus gravity.
+
+    A new observer starts as if ``reset`` at rest (p̂ = 0, F̂ = 0), so ``update`` works at once;
+    call ``reset`` with the measured CoM velocity when the robot is not at rest.
     """
 
     def __init__(self, mass: float, k_f: float) -> None:
@@ -24,8 +27,7 @@ class DisturbanceObserver:
             raise ValueError(f"k_f = {k_f}: must be > 0 1/s")
         self.mass = float(mass)
         self.k_f = float(k_f)
-        self.p_hat = np.zeros(3)
-        self.f_hat = np.zeros(3)
+        self.reset(np.zeros(3))
 
     def reset(self, com_velocity: NDArray) -> None:
         """p̂_0 = m ẋ(0) (eq. 42 at initialisation), F̂ = 0."""
