@@ -1,5 +1,6 @@
 """Preset schema: round-trips, shipped presets, overrides, and errors that name the key."""
 
+import math
 from pathlib import Path
 
 import pytest
@@ -178,3 +179,13 @@ def test_every_presets_b_is_a_height_its_robot_walks_at(path):
     config = load_preset(path)
     spec = SPECS[config.robot.model]
     assert spec.min_com_height_m <= GRAVITY * config.dcm.b**2 <= spec.max_com_height_m
+
+
+def test_turning_that_pivots_out_of_reach_is_refused():
+    # Δx = L + w tan(|turn|/2) in the stance foot's frame: 0.45 + 0.17 tan(0.15) > 0.45
+    with pytest.raises(ConfigError) as err:
+        config_from_dict({"gait": {"step_length": 0.45, "turn": 0.3}})
+    dx = 0.45 + 0.17 * math.tan(0.15)
+    for word in ("gait.step_length", "gait.turn", f"{dx:.3f}", "0.45 m"):
+        assert word in str(err.value), str(err.value)
+    assert config_from_dict({"gait": {"step_length": 0.40, "turn": 0.3}}).gait.turn == 0.3

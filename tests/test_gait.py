@@ -1,5 +1,6 @@
 """Footstep plans, VRP waypoints, contact schedule and swing paths."""
 
+import itertools
 import math
 
 import numpy as np
@@ -8,6 +9,7 @@ import pytest
 from dcmviz import GRAVITY
 from dcmviz.config import Config, config_from_dict
 from dcmviz.gait import (
+    OTHER,
     Footstep,
     SwingTrajectory,
     build_plan,
@@ -16,6 +18,7 @@ from dcmviz.gait import (
     plan_from_config,
     timing_of,
 )
+from dcmviz.robots import clamp_to_reach, get_spec, reach_problem
 
 
 def test_waypoints_sit_dz_above_the_feet_and_d1_d2_d3_hold():
@@ -142,3 +145,116 @@ def test_swing_path_boundary_conditions_and_retarget_is_c2():
     np.testing.assert_allclose(new.sample(1.7)[1], 0, atol=1e-9)
     # frozen near touchdown
     assert swing.retarget(1.65, np.array([1.0, 1.0, 0.0])) is swing
+
+
+# -- generated footsteps: straight walking unchanged, turning inside the robot's reach ----------
+
+
+def _stance_frame(stance: Footstep, step: Footstep) -> tuple[float, float, float]:
+    """(Δx, lateral toward the step's side, Δyaw) of ``step`` in ``stance``'s frame."""
+    d = step.position - stance.position
+    c, s = math.cos(stance.yaw), math.sin(stance.yaw)
+    sign = 1.0 if step.side == "left" else -1.0
+    return c * d[0] + s * d[1], sign * (-s * d[0] + c * d[1]), step.yaw - stance.yaw
+
+
+def _walk(steps, feet):
+    """Each step with the foot it steps from."""
+    feet = dict(feet)
+    for step in steps:
+        yield feet[OTHER[step.side]], step
+        feet[step.side] = step
+
+
+def _soles_intersect(a: Footstep, b: Footstep, length: float, width: float) -> bool:
+    """Brute force: a 2 mm grid of sole b tested point by point against rectangle a."""
+    u, v = np.meshgrid(np.linspace(-0.5, 0.5, 106), np.linspace(-0.5, 0.5, 66))
+    local = np.stack([u.ravel() * length, v.ravel() * width], axis=1)
+    c, s = math.cos(b.yaw), math.sin(b.yaw)
+    world = b.position[:2] + local @ np.array([[c, s], [-s, c]])
+    d = world - a.position[:2]
+    ca, sa = math.cos(a.yaw), math.sin(a.yaw)
+    x, y = d @ np.array([ca, sa]), d @ np.array([-sa, ca])
+    return bool(np.any((np.abs(x) < 0.5 * length) & (np.abs(y) < 0.5 * width)))
+
+
+@pytest.mark.parametrize("first", ["left", "right"])
+def test_straight_walking_is_bit_identical(first):
+    """Sole centres at (Σ L, ±w/2, Σ Δz), summed one step at a time as before turning changed."""
+    for L, w, h in ((0.2, 0.17, 0.0), (-0.13, 0.23, 0.05), (0.37, 0.19, -0.03)):
+        g = config_from_dict(
+            {
+                "gait": {
+                    "n_steps": 9,
+                    "step_length": L,
+                    "step_width": w,
+                    "step_height": h,
+                    "first_swing": first,
+                }
+            }
+        ).gait
+        feet, steps = plan_footsteps(g)
+        horizon = horizon_steps(g, feet, first, 9)
+        x = z = 0.0
+        for k in range(9):
+            if k < 8:  # the closing step (k = 8) lands beside footstep 8
+                x, z = x + L, z + h
+            side = first if k % 2 == 0 else OTHER[first]
+            y = (0.5 * w) if side == "left" else -(0.5 * w)
+            assert steps[k].side == side and steps[k].yaw == 0.0
+            assert steps[k].position.tolist() == [x, y, z]
+        x = z = 0.0
+        for k, step in enumerate(horizon):
+            x, z = x + L, z + h
+            assert step.position.tolist() == [x, steps[k].position[1], z] and step.yaw == 0.0
+
+
+@pytest.mark.parametrize(
+    ("robot", "lengths", "widths"),
+    [
+        ("talos", (-0.15, 0.0, 0.2, 0.4), (0.16, 0.17, 0.23, 0.30)),
+        ("g1", (-0.10, 0.0, 0.12, 0.25), (0.20, 0.24, 0.30)),
+    ],
+)
+def test_turning_steps_stay_inside_reach_in_both_modes(robot, lengths, widths):
+    """Up to ±0.3 rad per step: every step ≥ the robot's minimum width from its stance foot (in the
+    stance foot's frame), inside its reach, soles apart; clamp_to_reach moves none of them."""
+    spec = get_spec(robot)
+    b = spec.b_nominal_s
+    for turn, L, w in itertools.product((-0.3, -0.2, -0.05, 0.05, 0.2, 0.3), lengths, widths):
+        gait = {"n_steps": 7, "step_length": L, "step_width": w, "turn": turn}
+        g = config_from_dict({"robot": {"model": robot}, "gait": gait, "dcm": {"b": b}}).gait
+        feet, steps = plan_footsteps(g)
+        horizon = horizon_steps(g, feet, g.first_swing, 7)
+        for walked, closing in ((steps, True), (horizon, False)):
+            for k, (stance, step) in enumerate(_walk(walked, feet)):
+                dx, lateral, dyaw = _stance_frame(stance, step)
+                last = closing and k == len(walked) - 1
+                assert lateral == pytest.approx(w, abs=1e-12)
+                assert dyaw == pytest.approx(0.0 if last else turn, abs=1e-12)
+                assert dx == pytest.approx(0.0 if last else L + w * math.tan(abs(turn) / 2))
+                assert reach_problem(spec, stance, step) == "", (turn, L, w, k)
+                assert not _soles_intersect(stance, step, spec.foot_length_m, spec.foot_width_m)
+                clamped = clamp_to_reach(spec, stance, step, step.position, 0.3)
+                np.testing.assert_allclose(clamped, step.position, atol=1e-12)
+
+
+@pytest.mark.parametrize("turn", [0.2, 0.3, -0.3, 0.5])
+def test_turning_in_place_pivots_about_the_inner_foot(turn):
+    """step_length 0: after its first step the inner foot only turns; the outer foot swings
+    around it at w / cos(turn / 2) (both feet at (w tan(|turn|/2), ±w) in each other's frame)."""
+    w = 0.17
+    g = config_from_dict({"gait": {"n_steps": 9, "step_length": 0.0, "turn": turn}}).gait
+    feet, steps = plan_footsteps(g)
+    steps = steps[:-1]  # the closing step lands beside the last one
+    inner = "left" if turn > 0 else "right"
+    inner_steps = [s for s in steps if s.side == inner]
+    for s in inner_steps[1:]:
+        np.testing.assert_allclose(s.position, inner_steps[0].position, atol=1e-12)
+    assert [s.yaw for s in inner_steps] == pytest.approx(
+        [(k + 1) * turn for k, s in enumerate(steps) if s.side == inner]
+    )
+    for stance, step in _walk(steps, feet):
+        if step.side != inner and stance.side == inner:
+            d = np.linalg.norm(step.position[:2] - stance.position[:2])
+            assert d == pytest.approx(w / math.cos(turn / 2), abs=1e-12)

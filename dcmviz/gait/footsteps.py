@@ -1,7 +1,11 @@
 """Footstep generation: the standing feet, a plan-mode walk and the receding horizon.
 
-Steps advance ``step_length`` along a heading that turns ``turn`` per step; the sole centres sit
-``step_width``/2 either side of the midline.
+Each step turns ``turn`` (yaw) and lands at (Δx, ±step_width) in its stance foot's frame, with
+Δx = step_length + step_width·tan(|turn|/2) (:func:`dcmviz.robots.reach.generated_step_offset`):
+a turn pivots about the inner foot, which in place only turns while the outer foot swings around
+it, and the feet stay ``step_width`` apart measured in the stance foot's frame, as the robot's reach
+is.  Straight walking advances the midline ``step_length`` per step with the sole centres
+``step_width``/2 either side of it.
 """
 
 from __future__ import annotations
@@ -11,12 +15,30 @@ import math
 import numpy as np
 
 from dcmviz.config import GaitSection
+from dcmviz.robots.reach import generated_step_offset
 from dcmviz.state import OTHER, SIDE_SIGN, Footstep
 
 
 def _heading_offset(yaw: float, side: str, width: float) -> np.ndarray:
     s = SIDE_SIGN[side] * 0.5 * width
     return np.array([-math.sin(yaw) * s, math.cos(yaw) * s, 0.0])
+
+
+def _midline_advance(gait: GaitSection, stance_yaw: float, side: str) -> np.ndarray:
+    """How far the midline moves (m, world) when foot ``side`` steps off a stance at ``stance_yaw``.
+
+    The midline of a foot at yaw ψ is its sole centre minus ``_heading_offset(ψ, side, w)``; the
+    step lands at (Δx, ±w) in the stance frame with yaw ψ + turn (module docstring), so the
+    midline moves by R(ψ)(Δx + s w/2 sin Δψ, s w/2 (1 − cos Δψ)) with s = ±1 the step's side.
+    Straight walking: exactly (L cos ψ, L sin ψ, Δz).
+    """
+    turn, w = gait.turn, gait.step_width
+    dx, _ = generated_step_offset(gait.step_length, w, turn)
+    s = SIDE_SIGN[side] * 0.5 * w
+    a = dx + s * math.sin(turn)
+    b = s * (1.0 - math.cos(turn))
+    c, n = math.cos(stance_yaw), math.sin(stance_yaw)
+    return np.array([c * a - n * b, n * a + c * b, gait.step_height])
 
 
 def initial_feet(gait: GaitSection) -> dict[str, Footstep]:
@@ -28,7 +50,7 @@ def initial_feet(gait: GaitSection) -> dict[str, Footstep]:
 
 
 def generated_step(gait: GaitSection, k: int, *, closing: bool) -> Footstep:
-    """Footstep k ≥ 1 of the generated plan (midline advances step_length along heading k·turn).
+    """Footstep k ≥ 1 of the generated plan: yaw k·turn, (Δx, ±w) in footstep k−1's frame.
 
     With ``closing`` the step lands beside the previous one (the plan's last step).
     """
@@ -37,10 +59,9 @@ def generated_step(gait: GaitSection, k: int, *, closing: bool) -> Footstep:
     yaw = 0.0
     last = k - 1 if closing else k
     for j in range(1, last + 1):
+        side_j = gait.first_swing if j % 2 == 1 else OTHER[gait.first_swing]
+        m = m + _midline_advance(gait, (j - 1) * gait.turn, side_j)
         yaw = j * gait.turn
-        m = m + np.array(
-            [gait.step_length * math.cos(yaw), gait.step_length * math.sin(yaw), gait.step_height]
-        )
     return Footstep(side, m + _heading_offset(yaw, side, gait.step_width), yaw)
 
 
@@ -62,8 +83,9 @@ def horizon_steps(
 ) -> tuple[Footstep, ...]:
     """``count`` generated footsteps continuing from ``start_feet`` (continuous mode).
 
-    Each step is placed relative to the midline of the two current feet, heading + turn, so an
-    adjusted (really landed) foot shifts the walk only through the stance it leaves behind.
+    Each step is placed relative to its stance foot, (Δx, ±w) in its frame with yaw + turn (the
+    module docstring), so an adjusted (really landed) foot shifts the walk only through the stance
+    it leaves behind.
     """
     feet = dict(start_feet)
     side = next_side
@@ -72,9 +94,7 @@ def horizon_steps(
         stance = feet[OTHER[side]]
         yaw = stance.yaw + gait.turn
         mid = stance.position - _heading_offset(stance.yaw, stance.side, gait.step_width)
-        mid = mid + np.array(
-            [gait.step_length * math.cos(yaw), gait.step_length * math.sin(yaw), gait.step_height]
-        )
+        mid = mid + _midline_advance(gait, stance.yaw, side)
         step = Footstep(side, mid + _heading_offset(yaw, side, gait.step_width), yaw)
         out.append(step)
         feet[side] = step

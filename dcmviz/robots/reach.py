@@ -14,11 +14,25 @@ from dcmviz.robots.spec import RobotSpec
 from dcmviz.state import OTHER, SIDE_SIGN, Footstep
 
 
+def generated_step_offset(
+    step_length: float, step_width: float, turn: float
+) -> tuple[float, float]:
+    """(Δx, lateral) in m of a generated footstep in its stance foot's frame (yaw + ``turn``).
+
+    A turn pivots about the inner foot: with Δx = w tan(|Δψ|/2) and lateral w both feet sit at
+    the same (Δx, ±w) in each other's frames, so in place (step_length 0) the inner foot only
+    turns and the outer one swings around it; ``step_length`` adds along the stance foot's x.
+    The width measured in the stance frame is always ``step_width``.  Straight: (L, w).
+    """
+    return step_length + step_width * math.tan(0.5 * abs(turn)), step_width
+
+
 def check_reachable(spec: RobotSpec, gait: Any) -> None:
     """ValueError naming the first footstep of a preset's ``gait`` section out of the robot's reach.
 
-    Generated footsteps are checked by their parameters; explicit ones one by one, relative to the
-    stance foot (the first from the standing feet at (0, ±step_width/2, 0)).
+    Generated footsteps are checked by their parameters (their offset in the stance foot's frame,
+    :func:`generated_step_offset`); explicit ones one by one, relative to the stance foot (the
+    first from the standing feet at (0, ±step_width/2, 0)).
     """
     if gait.footsteps is None:
         L, w, h = abs(gait.step_length), gait.step_width, abs(gait.step_height)
@@ -32,6 +46,14 @@ def check_reachable(spec: RobotSpec, gait: Any) -> None:
                     f"gait.{key} = {getattr(gait, key)}: out of {spec.name}'s reach; "
                     f"allowed |{key}| ≤ {limit} m"
                 )
+        dx, _ = generated_step_offset(gait.step_length, w, gait.turn)
+        if abs(dx) > spec.max_step_length_m + 1e-12:
+            raise ValueError(
+                f"gait.step_length = {gait.step_length}, gait.turn = {gait.turn}: turning about "
+                f"the inner foot puts each step {dx:.3f} m ahead of the stance foot "
+                f"(step_length + step_width·tan(|turn|/2)), out of {spec.name}'s reach; allowed "
+                f"≤ {spec.max_step_length_m} m"
+            )
         if w < spec.min_step_width_m:
             raise ValueError(
                 f"gait.step_width = {w}: the feet of {spec.name} collide; allowed "
