@@ -10,8 +10,12 @@ logs, every ``log_dt_s`` of simulated time on the ``sim_time`` timeline:
   strips (re-logged when a touchdown commits a footstep), footsteps as boxes (planned = nominal,
   adjusted = the target being adjusted right now, realised = where each foot landed), the applied
   external force and the estimated force as arrows at the CoM;
-* ``world/robot``: for the MuJoCo backend every URDF link as a transform with its visual meshes
-  (``rr.Asset3D``, logged once as static data); for the point mass a ball and two legs.
+* ``world/robot/<model>/<mesh>``: the humanoid's visual meshes (:mod:`dcmviz.visual`, the
+  model the dashboard draws) as ``rr.Mesh3D``, logged once when the first humanoid tick arrives,
+  each posed per sample from ``tick.pose`` by a ``Transform3D``; for the point mass two legs.
+
+The recorder reads the session's :class:`~dcmviz.tick.Tick` records and, at :meth:`Recorder.start`,
+its robot spec and nominal plan; nothing else of the session.
 
 Each recorder owns a dedicated :class:`rerun.RecordingStream`, so several recordings can coexist.
 The dashboard's Record toggle calls :meth:`Recorder.start` and :meth:`Recorder.stop`.
@@ -20,9 +24,7 @@ The dashboard's Record toggle calls :meth:`Recorder.start` and :meth:`Recorder.s
 from __future__ import annotations
 
 import math
-import os
 import uuid
-import xml.etree.ElementTree as ET
 from collections import defaultdict, deque
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,7 +33,9 @@ from typing import Any
 import numpy as np
 import rerun as rr
 
+from dcmviz.session import Session
 from dcmviz.tick import Tick
+from dcmviz.visual import RobotVisual, robot_visual
 
 LOG_DT_S = 0.01  # sim seconds between logged samples
 TRAIL_SAMPLES = 200  # 3-D trails show the last 2 s
@@ -57,111 +61,6 @@ FOOT_COLORS = {
 
 
 # ---------------------------------------------------------------------------------------------
-# robot geometry (URDF visual meshes placed by Pinocchio frame poses)
-
-
-@dataclass(frozen=True)
-class Visual:
-    link: str
-    mesh: str  # absolute path
-    translation: np.ndarray
-    rotation: np.ndarray  # (3, 3)
-    scale: np.ndarray
-    color: tuple[int, int, int, int] | None
-
-
-def _rpy(rpy: np.ndarray) -> np.ndarray:
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = (
-        math.cos(r),
-        math.sin(r),
-        math.cos(p),
-        math.sin(p),
-        math.cos(y),
-        math.sin(y),
-    )
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
-
-
-def urdf_visuals(urdf_path: str, package_root: str) -> list[Visual]:
-    """Visual meshes of every link of a URDF (``package://example-robot-data/robots/`` resolved)."""
-    root = ET.parse(urdf_path).getroot()
-    materials = {}
-    for m in root.findall("material"):
-        c = m.find("color")
-        if c is not None and m.get("name"):
-            materials[m.get("name")] = c.get("rgba")
-    out = []
-    for link in root.iter("link"):
-        for vis in link.findall("visual"):
-            mesh = vis.find("geometry/mesh")
-            if mesh is None:
-                continue
-            filename = mesh.get("filename", "")
-            for prefix in ("package://example-robot-data/robots/", "package://"):
-                if filename.startswith(prefix):
-                    filename = os.path.join(package_root, filename[len(prefix) :])
-                    break
-            if not os.path.isfile(filename):
-                continue
-            origin = vis.find("origin")
-            xyz = np.array(
-                (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split(), float
-            )
-            rpy = np.array(
-                (origin.get("rpy", "0 0 0") if origin is not None else "0 0 0").split(), float
-            )
-            scale = np.array(mesh.get("scale", "1 1 1").split(), float)
-            color = None
-            mat = vis.find("material")
-            if mat is not None:
-                c = mat.find("color")
-                rgba = c.get("rgba") if c is not None else materials.get(mat.get("name", ""))
-                if rgba:
-                    v = [float(x) for x in rgba.split()]
-                    color = tuple(int(round(255 * min(1.0, max(0.0, x)))) for x in v[:4])
-            out.append(Visual(link.get("name"), filename, xyz, _rpy(rpy), scale, color))
-    return out
-
-
-class RobotPoser:
-    """World poses of the URDF links of a MuJoCo-backend robot, from Pinocchio frames."""
-
-    def __init__(self, backend: Any) -> None:
-        import pinocchio as pin
-
-        from dcmviz.sim.robots import robot_source, robots_dir
-
-        self._pin = pin
-        self.robot = backend.robot
-        self.backend = backend
-        src = robot_source(self.robot.name)
-        root = robots_dir()
-        visuals = urdf_visuals(os.path.join(root, src.urdf), root)
-        model = self.robot.pin_model
-        self.model, self.data = model, model.createData()
-        self.visuals = [v for v in visuals if model.existFrame(v.link)]
-        self.links = sorted({v.link for v in self.visuals})
-        self.frame_ids = [model.getFrameId(link) for link in self.links]
-
-    def poses(self) -> list[tuple[str, np.ndarray, np.ndarray]]:
-        """(link, translation, rotation matrix) in world for every link with a visual."""
-        q = self.robot.q_pin(self.backend.data.qpos)
-        self._pin.framesForwardKinematics(self.model, self.data, q)
-        out = []
-        for link, fid in zip(self.links, self.frame_ids, strict=True):
-            m = self.data.oMf[fid]
-            out.append((link, np.array(m.translation), np.array(m.rotation)))
-        return out
-
-
-# ---------------------------------------------------------------------------------------------
 # the recorder
 
 
@@ -181,7 +80,7 @@ class Recorder:
         return self.stream is not None
 
     # -- lifecycle ------------------------------------------------------------------------------
-    def start(self, session: Any, path: str | Path) -> None:
+    def start(self, session: Session, path: str | Path) -> None:
         """Open ``path`` (.rrd), log the static scene and chain :meth:`on_tick` into the session."""
         if self.stream is not None:
             raise RuntimeError("Recorder.start: already recording; call stop() first")
@@ -197,7 +96,7 @@ class Recorder:
         self._n_records = -1
         self._trail: dict[str, deque] = {k: deque(maxlen=TRAIL_SAMPLES) for k in ("com", "xi")}
         self.samples = 0
-        self._poser = None
+        self._visual: RobotVisual | None = None  # the humanoid whose meshes are logged
         self._buf: dict[str, list] = defaultdict(list)
         self._had_target = False
         self._last_record = None
@@ -216,7 +115,9 @@ class Recorder:
         return self.path
 
     # -- logging --------------------------------------------------------------------------------
-    def _log_static(self, session: Any) -> None:
+    def _log_static(self, session: Session) -> None:
+        """What never changes: plot styles, point and arrow styles (not their positions: static
+        data shadows temporal data of the same component), the nominal footsteps."""
         rec = self.stream
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         for axis in ("x", "y", "z"):
@@ -240,8 +141,7 @@ class Recorder:
         )
         rec.log(
             "world/points",
-            rr.Points3D(
-                np.zeros((len(SERIES), 3)),
+            rr.Points3D.from_fields(
                 radii=[0.03, 0.02, 0.015, 0.015, 0.015, 0.02],
                 colors=[SERIES_COLORS[k] for k in SERIES],
                 labels=list(SERIES),
@@ -250,8 +150,7 @@ class Recorder:
         )
         rec.log(
             "world/forces",
-            rr.Arrows3D(
-                vectors=np.zeros((2, 3)),
+            rr.Arrows3D.from_fields(
                 colors=[(230, 50, 50), (160, 60, 220)],
                 radii=[0.01, 0.008],
                 labels=["F_ext", "F̂"],
@@ -260,38 +159,13 @@ class Recorder:
         )
         rec.log(
             "world/robot/legs",
-            rr.LineStrips3D(np.zeros((2, 2, 3)), colors=[(90, 90, 90)], radii=0.01),
+            rr.LineStrips3D.from_fields(colors=[(90, 90, 90)], radii=0.01),
             static=True,
         )
         spec = session.spec
         self._half_size = (0.5 * spec.foot_length_m, 0.5 * spec.foot_width_m, 0.004)
         nominal = session.nominal_plan
         rec.log("world/footsteps/planned", self._boxes(nominal.steps, "planned"), static=True)
-        backend = session.backend
-        if getattr(backend, "name", "") == "mujoco" and hasattr(backend, "robot"):
-            try:
-                self._poser = RobotPoser(backend)
-            except Exception:  # noqa: BLE001 - drawing the robot is optional
-                self._poser = None
-            if self._poser is not None and self.meshes:
-                for i, v in enumerate(self._poser.visuals):
-                    entity = f"world/robot/{v.link}/visual_{i}"
-                    rec.log(
-                        entity,
-                        rr.Transform3D(translation=v.translation, mat3x3=v.rotation, scale=v.scale),
-                        static=True,
-                    )
-                    rec.log(
-                        entity,
-                        rr.Asset3D(
-                            path=v.mesh,
-                            media_type=rr.MediaType.STL
-                            if v.mesh.lower().endswith(".stl")
-                            else None,
-                            albedo_factor=v.color or (200, 200, 210, 255),
-                        ),
-                        static=True,
-                    )
 
     def _boxes(self, steps: Any, kind: str) -> rr.Boxes3D:
         centers = [
@@ -328,6 +202,7 @@ class Recorder:
             return
         self._next_t = tick.t + self.log_dt_s
         t = self._offset + tick.t
+        self._show_robot(tick.robot if tick.pose is not None else None, t)  # may flush: first
         rec = self.stream
         state = tick.state
         values = {
@@ -353,10 +228,12 @@ class Recorder:
         buf["points"].append(points)
         buf["arrows"].append(np.array([f_ext, f_hat]) * FORCE_SCALE_M_PER_N)
         buf["com"].append(com)
-        if self._poser is not None and tick.pose is not None:
-            buf["robot"].append(self._poser.poses())
+        if tick.pose is not None:
+            buf["robot_t"].append(t)
+            buf["robot"].append(self._visual.in_world(tick.pose))
         else:
-            buf["legs"].append([np.asarray(state.feet[s], float) for s in ("left", "right")])
+            buf["legs_t"].append(t)
+            buf["legs"].append([[state.feet[s], com] for s in ("left", "right")])
 
         # rare or slow-changing things are logged directly at this instant
         rec.set_time("sim_time", duration=t)
@@ -397,6 +274,30 @@ class Recorder:
         if len(buf["t"]) >= FLUSH_SAMPLES:
             self._flush()
 
+    def _show_robot(self, model: str | None, t: float) -> None:
+        """Log the meshes of humanoid ``model`` (None: no humanoid) once; clear the previous one."""
+        current = None if self._visual is None else self._visual.model_name
+        if model == current:
+            return
+        self._flush()  # buffered poses belong to the robot shown so far
+        rec = self.stream
+        rec.set_time("sim_time", duration=t)
+        if current is not None:
+            rec.log(f"world/robot/{current}", rr.Clear(recursive=True))
+        self._visual = None if model is None else robot_visual(model)
+        if self._visual is None or not self.meshes:
+            return
+        for mesh in self._visual.meshes:
+            rec.log(
+                f"world/robot/{model}/{mesh.name}",
+                rr.Mesh3D(
+                    vertex_positions=mesh.vertices,
+                    triangle_indices=mesh.faces,
+                    vertex_normals=mesh.normals,
+                    albedo_factor=mesh.color,
+                ),
+            )
+
     def _flush(self) -> None:
         """Send the buffered samples as columns."""
         buf = self._buf
@@ -429,24 +330,26 @@ class Recorder:
             ).partition([2] * n),
         )
         if buf["robot"]:
-            links = [link for link, _, _ in buf["robot"][0]]
-            for j, link in enumerate(links):
+            model = self._visual.model_name
+            robot_index = [rr.TimeColumn("sim_time", duration=np.array(buf["robot_t"]))]
+            position = np.array([p.position for p in buf["robot"]])  # (samples, meshes, 3)
+            xyzw = np.roll(np.array([p.wxyz for p in buf["robot"]]), -1, axis=2)
+            for j, mesh in enumerate(self._visual.meshes):
                 rec.send_columns(
-                    f"world/robot/{link}",
-                    indexes=index,
+                    f"world/robot/{model}/{mesh.name}",
+                    indexes=robot_index,
                     columns=rr.Transform3D.columns(
-                        translation=np.array([poses[j][1] for poses in buf["robot"]]),
-                        mat3x3=np.array([poses[j][2] for poses in buf["robot"]]),
+                        translation=position[:, j], quaternion=xyzw[:, j]
                     ),
                 )
         if buf["legs"]:
-            strips = np.concatenate(
-                [np.array([[f[0], c], [f[1], c]]) for f, c in zip(buf["legs"], com, strict=True)]
-            )
+            strips = np.array(buf["legs"], float).reshape(-1, 2, 3)  # two legs per sample
             rec.send_columns(
                 "world/robot/legs",
-                indexes=index,
-                columns=rr.LineStrips3D.columns(strips=list(strips)).partition([2] * n),
+                indexes=[rr.TimeColumn("sim_time", duration=np.array(buf["legs_t"]))],
+                columns=rr.LineStrips3D.columns(strips=list(strips)).partition(
+                    [2] * len(buf["legs"])
+                ),
             )
         self._buf = defaultdict(list)
 

@@ -5,16 +5,26 @@ from __future__ import annotations
 from collections import Counter
 from pathlib import Path
 
-import numpy as np
 import pytest
 import rerun.chunk
 
 from dcmviz.config import load_preset
-from dcmviz.record import Recorder, record_session, urdf_visuals
+from dcmviz.record import Recorder, record_session
 from dcmviz.run import main
 from dcmviz.session import Session
+from dcmviz.visual import robot_visual
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def static_columns(path: Path) -> dict[str, set[str]]:
+    """Component columns logged as static data, per entity path."""
+    out: dict[str, set[str]] = {}
+    for chunk in rerun.chunk.RrdReader(str(path)).store().stream():
+        if chunk.is_static:
+            names = {f.name for f in chunk.to_record_batch().schema}
+            out.setdefault(str(chunk.entity_path), set()).update(names)
+    return out
 
 
 def rows_by_entity(path: Path) -> Counter:
@@ -41,6 +51,11 @@ def test_lip_recording_loads_back(tmp_path: Path) -> None:
     assert rows["/world/footsteps/realised"] >= 2  # a box set per touchdown
     assert rows["/world/footsteps/adjusted"] >= 1  # the push at 3 s adjusts a footstep
     assert rows["/world/robot/legs"] == rows["/world/points"]
+    # static data shadows temporal data of the same component: only styles may be static
+    static = static_columns(path)
+    assert "Points3D:positions" not in static["/world/points"]
+    assert "Arrows3D:vectors" not in static["/world/forces"]
+    assert "LineStrips3D:strips" not in static["/world/robot/legs"]
 
 
 def test_start_stop_restores_callback_and_streams_are_separate(tmp_path: Path) -> None:
@@ -61,22 +76,39 @@ def test_start_stop_restores_callback_and_streams_are_separate(tmp_path: Path) -
 
 
 def test_runner_rrd_with_mujoco_robot(tmp_path: Path) -> None:
+    """The humanoid's meshes are the shared visual model's, each posed per sample."""
     path = tmp_path / "talos.rrd"
     preset = str(ROOT / "presets" / "walk_forward.toml")
     assert main([preset, "--sim", "mujoco", "--duration", "0.5", "--rrd", str(path)]) == 0
     rows = rows_by_entity(path)
-    links = [e for e in rows if e.startswith("/world/robot/") and "visual" not in e]
-    assert "/world/robot/torso_2_link" in links and len(links) > 20
-    assert rows["/world/robot/torso_2_link"] == pytest.approx(50, abs=1)
+    meshes = robot_visual("talos").meshes
+    for mesh in meshes:
+        entity = f"/world/robot/talos/{mesh.name}"
+        assert rows[entity] == pytest.approx(50 + 1, abs=1), entity  # poses + the mesh itself
+    assert not any(e.startswith("/world/robot/legs") for e in rows)  # no point-mass legs
     assert path.stat().st_size > 1_000_000  # the Talos meshes are in the file
 
 
-def test_urdf_visuals_resolve_package_paths() -> None:
-    from dcmviz.sim.robots import robot_source, robots_dir
+def test_recorder_reads_only_ticks_spec_and_plan(tmp_path: Path) -> None:
+    """Recorder.start and on_tick work on an object that offers just what the recorder may read."""
+    from types import SimpleNamespace
 
-    root = robots_dir()
-    visuals = urdf_visuals(str(Path(root) / robot_source("talos").urdf), root)
-    assert len(visuals) > 30
-    assert all(Path(v.mesh).is_file() for v in visuals)
-    for v in visuals:
-        assert np.allclose(v.rotation @ v.rotation.T, np.eye(3), atol=1e-9)
+    config = load_preset(ROOT / "presets" / "walk_forward.toml")
+    session = Session(config, backend="mujoco")
+    ticks = []
+    session.subscribe(ticks.append)
+    session.run(0.2)
+    facade = SimpleNamespace(
+        spec=session.spec,
+        nominal_plan=session.nominal_plan,
+        config=session.config,
+        subscribe=lambda f: lambda: None,
+    )
+    recorder = Recorder()
+    recorder.start(facade, tmp_path / "facade.rrd")
+    for tick in ticks:
+        recorder.on_tick(tick)
+    recorder.stop()
+    rows = rows_by_entity(tmp_path / "facade.rrd")
+    assert rows["/world/points"] == pytest.approx(20, abs=1)
+    assert rows[f"/world/robot/talos/{robot_visual('talos').meshes[0].name}"] >= 20
