@@ -22,6 +22,7 @@ import numpy as np
 
 from dcmviz.cli import BadInput, Parser, positive_seconds
 from dcmviz.config import Config, ConfigError, Push, apply_overrides, load_preset
+from dcmviz.gait.feasibility import check_plan
 from dcmviz.session import Session
 from dcmviz.tick import Tick
 
@@ -173,6 +174,7 @@ def run_session(
     A fall ends the run early and is reported, never raised.
     """
     config = session.config
+    warnings = [str(w) for w in check_plan(session.plan, session.spec, config)]  # the walked plan
     log = TickLog()
     unsubscribe = [session.subscribe(log)]
     csv_log = CsvLog(csv_path) if csv_path is not None else None
@@ -238,6 +240,7 @@ def run_session(
         "control": config.control.model_dump(),
         "dcm": config.dcm.model_dump(),
         "rrd": str(rrd) if rrd is not None else None,
+        "warnings": warnings,
     }
     return result
 
@@ -259,6 +262,7 @@ def summary(result: dict[str, Any]) -> str:
         f"  DCM error max {result['max_dcm_error_m'] * 100:.2f} cm,"
         f" final {result['final_dcm_error_m'] * 100:.2f} cm",
     ]
+    lines += [f"  warning: {w}" for w in result.get("warnings", ())]
     for i, p in enumerate(result["pushes"]):
         peak = p["max_dcm_error_m"]
         rec = p["recovery_time_1cm_s"]
