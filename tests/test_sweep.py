@@ -59,7 +59,7 @@ def test_step_adjustment_recovers_larger_lateral_impulse(tmp_path: Path) -> None
         max_impulse_ns=120.0,
         grid=4,
         iterations=4,
-        jobs=2,
+        jobs=1,
     )
     result = envelope(load_preset(WALK), settings)
     assert result["swing_side"] == "right"

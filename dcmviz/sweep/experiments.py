@@ -1,14 +1,14 @@
-"""The two sweep experiments: the push-recovery envelope (largest impulse per push direction and
-controller) and the ramp test (largest held force of the preset's ramped push per controller);
-their cells run in a process pool."""
+"""The sweep experiments: the push-recovery envelope (largest impulse per push direction and
+controller), the ramp test (largest held force of the preset's ramped push per controller), and
+the fixed-push probes behind the tracking objective.  Each builds :class:`~dcmviz.sweep.runner.Cell`
+searches and runs them with :func:`~dcmviz.sweep.runner.run_cells` (serially or on Ray)."""
 
 from __future__ import annotations
 
 import math
-import multiprocessing
 import os
-import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -18,52 +18,33 @@ from dcmviz import GRAVITY
 from dcmviz.cli import BadInput
 from dcmviz.config import Config
 from dcmviz.gait import plan_from_config
-from dcmviz.session import Session
+from dcmviz.robots import get_spec
 from dcmviz.sweep.report import ratios
-from dcmviz.sweep.search import Rollouts, Trial, find_boundary, push_window
+from dcmviz.sweep.runner import (
+    Cell,
+    CellOutcome,
+    RolloutEvent,
+    Runner,
+    SweepRun,
+    make_runner,
+    run_cells,
+)
+from dcmviz.sweep.search import Trial, push_window
+from dcmviz.sweep.store import RolloutStore
 
 CONTROLLERS: dict[str, dict[str, bool]] = {
     "tracking": {"step_adjustment": False, "observer": False},  # eq. (24)
     "step_adjustment": {"step_adjustment": True, "observer": False},  # eqs. (27)-(35), (40)/(41)
     "step_adjustment+observer": {"step_adjustment": True, "observer": True},  # + eqs. (42)-(49)
 }
+PRESET_CONTROLLER = "preset"  # the preset's own [control] flags, unchanged
 
 
-# ---------------------------------------------------------------------------------------------
-# envelope
-
-
-def _cell(job: tuple[Trial, float, str, float, int, int]) -> dict[str, Any]:
-    trial, direction, controller, hi, grid, iterations = job
-    unit = np.array([math.cos(direction), math.sin(direction), 0.0])
-    wall = time.perf_counter()
-    rollouts = Rollouts(trial)
-    # search over the impulse J (N·s); the force is J / T_push
-    b = find_boundary(
-        lambda j: rollouts.survives(unit * (j / trial.duration_s)),
-        hi,
-        grid=grid,
-        iterations=iterations,
-    )
-    return {
-        "direction_deg": round(math.degrees(direction), 6),
-        "controller": controller,
-        "max_impulse_ns": b.max_ok,
-        "max_force_n": b.max_ok / trial.duration_s,
-        "first_fail_impulse_ns": b.first_fail,
-        "capped": b.capped,
-        "non_monotone_ns": b.non_monotone,
-        "runs": b.runs,
-        "wall_time_s": time.perf_counter() - wall,
-    }
-
-
-def _pool_map(fn: Callable, jobs: list, n_jobs: int) -> list:
-    if n_jobs <= 1 or len(jobs) <= 1:
-        return [fn(j) for j in jobs]
-    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else None
-    with multiprocessing.get_context(method).Pool(min(n_jobs, len(jobs))) as pool:
-        return pool.map(fn, jobs, chunksize=1)
+def with_controller(config: Config, name: str) -> Config:
+    """``config`` with the step adjustment / observer flags of controller ``name``."""
+    if name == PRESET_CONTROLLER:
+        return config
+    return config.replace(control={**config.control.model_dump(), **CONTROLLERS[name]})
 
 
 @dataclass
@@ -78,10 +59,11 @@ class SweepSettings:
     max_impulse_ns: float = 150.0
     grid: int = 6
     iterations: int = 7
-    jobs: int = field(default_factory=lambda: os.cpu_count() or 1)
+    jobs: int = field(default_factory=lambda: os.cpu_count() or 1)  # 1: serial, no Ray
     body: str = "torso"
     controllers: tuple[str, ...] = tuple(CONTROLLERS)
     angles_deg: tuple[float, ...] | None = None  # explicit directions instead of ``directions``
+    address: str | None = None  # a Ray cluster; None: a local instance (or serial for jobs 1)
 
     def direction_angles(self) -> list[float]:
         """Push directions (rad), 0 = +x forward, counter-clockwise."""
@@ -90,88 +72,188 @@ class SweepSettings:
         return [2.0 * math.pi * i / self.directions for i in range(self.directions)]
 
 
-def envelope(config: Config, settings: SweepSettings) -> dict[str, Any]:
-    """The push-recovery envelope of a preset: one row per (direction, controller)."""
-    base = config.replace(pushes=[])
-    start, t_lift, t_touch = push_window(base, settings.step, settings.phase)
-    push_end = start + settings.push_duration_s
-    plan = plan_from_config(base)
-    period = base.gait.t_ss + base.gait.t_ds
+@dataclass(frozen=True)
+class Execution:
+    """How cells run: a runner (None: made from the settings and closed after), where finished
+    rollouts go, a progress bar, a callback per answered probe."""
+
+    runner: Runner | None = None
+    store: RolloutStore | None = None
+    progress: bool = False
+    on_result: Callable[[RolloutEvent], None] | None = None
+
+
+@contextmanager
+def _runner(settings: SweepSettings, execution: Execution) -> Iterator[Runner]:
+    if execution.runner is not None:
+        yield execution.runner
+        return
+    runner = make_runner(settings.jobs, settings.address)
+    try:
+        yield runner
+    finally:
+        runner.close()
+
+
+def run(
+    cells: list[Cell], settings: SweepSettings, execution: Execution | None, desc: str
+) -> SweepRun:
+    """Run ``cells`` as ``execution`` says (default: serial or local Ray per ``settings.jobs``)."""
+    execution = execution or Execution()
+    with _runner(settings, execution) as runner:
+        return run_cells(
+            cells,
+            runner,
+            execution.store,
+            progress=execution.progress,
+            on_result=execution.on_result,
+            desc=desc,
+        )
+
+
+# ---------------------------------------------------------------------------------------------
+# envelope
+
+
+@dataclass(frozen=True)
+class PushWindow:
+    start_s: float
+    lift_s: float
+    touch_s: float
+    end_s: float
+    swing_side: str
+
+
+def envelope_window(config: Config, settings: SweepSettings) -> PushWindow:
+    """When the envelope's pushes start and when its rollouts end, for this preset."""
+    start, t_lift, t_touch = push_window(config, settings.step, settings.phase)
+    plan = plan_from_config(config)
     if settings.full:
-        end = plan.t_end + base.gait.t_stop
+        end = plan.t_end + config.gait.t_stop
     else:
-        end = push_end + settings.settle_steps * period
-    jobs = []
+        period = config.gait.t_ss + config.gait.t_ds
+        end = start + settings.push_duration_s + settings.settle_steps * period
+    return PushWindow(start, t_lift, t_touch, end, plan.steps[settings.step - 1].side)
+
+
+def envelope_cells(
+    config: Config, settings: SweepSettings, label: dict[str, Any] | None = None
+) -> tuple[list[Cell], PushWindow]:
+    """One boundary search over the impulse J (N·s; force J / T_push) per controller and
+    direction."""
+    base = config.replace(pushes=[])
+    window = envelope_window(base, settings)
+    cells = []
     for name in settings.controllers:
-        cfg = base.replace(control={**base.control.model_dump(), **CONTROLLERS[name]})
-        trial = Trial(cfg, settings.backend, start, settings.push_duration_s, end, settings.body)
+        trial = Trial(
+            with_controller(base, name),
+            settings.backend,
+            window.start_s,
+            settings.push_duration_s,
+            window.end_s,
+            settings.body,
+        )
         for direction in settings.direction_angles():
-            jobs.append(
-                (
+            unit = (math.cos(direction), math.sin(direction), 0.0)
+            cells.append(
+                Cell(
                     trial,
-                    direction,
-                    name,
+                    unit,
+                    settings.push_duration_s,
                     settings.max_impulse_ns,
                     settings.grid,
                     settings.iterations,
+                    label={
+                        **(label or {}),
+                        "direction_deg": round(math.degrees(direction), 6),
+                        "controller": name,
+                    },
                 )
             )
-    wall = time.perf_counter()
-    rows = _pool_map(_cell, jobs, settings.jobs)
-    wall = time.perf_counter() - wall
-    rows.sort(key=lambda r: (r["direction_deg"], settings.controllers.index(r["controller"])))
+    return cells, window
+
+
+def envelope_row(outcome: CellOutcome) -> dict[str, Any]:
+    """One envelope row: the largest surviving impulse of one (direction, controller) cell."""
+    b = outcome.boundary
+    assert b is not None
+    duration = outcome.cell.trial.duration_s
+    return {
+        **outcome.cell.label,
+        "max_impulse_ns": b.max_ok,
+        "max_force_n": b.max_ok / duration,
+        "first_fail_impulse_ns": b.first_fail,
+        "capped": b.capped,
+        "non_monotone_ns": b.non_monotone,
+        "runs": b.runs,
+        "wall_time_s": outcome.rollout_time_s,
+    }
+
+
+def envelope(
+    config: Config, settings: SweepSettings, execution: Execution | None = None
+) -> dict[str, Any]:
+    """The push-recovery envelope of a preset: one row per (direction, controller)."""
+    cells, window = envelope_cells(config, settings)
+    sweep = run(cells, settings, execution, "envelope")
+    rows = [envelope_row(o) for o in sweep.outcomes]
+    order = {name: i for i, name in enumerate(settings.controllers)}
+    rows.sort(key=lambda r: (r["direction_deg"], order[r["controller"]]))
     return {
         "preset": config.name,
         "robot": config.robot.model,
         "backend": settings.backend,
         "settings": asdict(settings),
-        "push_start_s": start,
-        "swing_side": plan.steps[settings.step - 1].side,
-        "single_support_s": [t_lift, t_touch],
-        "run_end_s": end,
+        "push_start_s": window.start_s,
+        "swing_side": window.swing_side,
+        "single_support_s": [window.lift_s, window.touch_s],
+        "run_end_s": window.end_s,
         "resolution_ns": settings.max_impulse_ns / settings.grid / 2**settings.iterations,
-        "wall_time_s": wall,
+        "wall_time_s": sweep.wall_time_s,
+        "rollouts": _counts(sweep),
         "rows": rows,
         "ratios": ratios(rows),
     }
+
+
+def _counts(sweep: SweepRun) -> dict[str, Any]:
+    return {"run": sweep.run, "from_store": sweep.cached, "runner": sweep.runner}
+
+
+# ---------------------------------------------------------------------------------------------
+# fixed pushes (the tracking objective)
+
+
+def probe_cells(config: Config, settings: SweepSettings, impulse_ns: float) -> list[Cell]:
+    """One rollout per controller and direction with a push of ``impulse_ns`` (N·s)."""
+    cells, _ = envelope_cells(config, settings)
+    return [Cell(c.trial, c.unit, c.divisor, probes=(impulse_ns,), label=c.label) for c in cells]
 
 
 # ---------------------------------------------------------------------------------------------
 # ramp (tug of war) test
 
 
-def _ramp_cell(job: tuple[Trial, np.ndarray, str, float, int, int]) -> dict[str, Any]:
-    trial, unit, controller, hi, grid, iterations = job
-    wall = time.perf_counter()
-    rollouts = Rollouts(trial)
-    b = find_boundary(lambda f: rollouts.survives(unit * f), hi, grid=grid, iterations=iterations)
-    return {
-        "controller": controller,
-        "max_held_force_n": b.max_ok,
-        "first_fall_force_n": b.first_fail,
-        "capped": b.capped,
-        "non_monotone_n": b.non_monotone,
-        "runs": b.runs,
-        "wall_time_s": time.perf_counter() - wall,
-    }
-
-
-def ramp_test(config: Config, settings: SweepSettings, *, max_force_n: float) -> dict[str, Any]:
+def ramp_test(
+    config: Config,
+    settings: SweepSettings,
+    *,
+    max_force_n: float,
+    execution: Execution | None = None,
+) -> dict[str, Any]:
     """Bisect the held force of the preset's (first) ramped push for each controller."""
     ramped = [p for p in config.pushes if p.ramp > 0.0]
     if not ramped:
         raise BadInput("--ramp-test: the preset has no ramped push (pushes[*].ramp > 0)")
     push = ramped[0]
     force = np.array(push.force, dtype=float)
-    unit = force / np.linalg.norm(force)
+    unit = tuple(float(u) for u in force / np.linalg.norm(force))
     base = config.replace(pushes=[])
-    session = Session(base, backend=settings.backend)
-    mass = float(session.backend.mass)
-    jobs = []
+    mass = get_spec(config.robot.model).mass_kg
+    cells = []
     for name in settings.controllers:
-        cfg = base.replace(control={**base.control.model_dump(), **CONTROLLERS[name]})
         trial = Trial(
-            cfg,
+            with_controller(base, name),
             settings.backend,
             push.start,
             push.duration,
@@ -179,11 +261,34 @@ def ramp_test(config: Config, settings: SweepSettings, *, max_force_n: float) ->
             push.body,
             push.ramp,
         )
-        jobs.append((trial, unit, name, max_force_n, settings.grid, settings.iterations))
-    wall = time.perf_counter()
-    rows = _pool_map(_ramp_cell, jobs, settings.jobs)
-    for r in rows:
-        r["max_held_force_pct_weight"] = 100.0 * r["max_held_force_n"] / (mass * GRAVITY)
+        cells.append(
+            Cell(
+                trial,
+                unit,
+                1.0,
+                max_force_n,
+                settings.grid,
+                settings.iterations,
+                label={"controller": name},
+            )
+        )
+    sweep = run(cells, settings, execution, "ramp test")
+    rows = []
+    for o in sweep.outcomes:
+        b = o.boundary
+        assert b is not None
+        rows.append(
+            {
+                "controller": o.cell.label["controller"],
+                "max_held_force_n": b.max_ok,
+                "first_fall_force_n": b.first_fail,
+                "capped": b.capped,
+                "non_monotone_n": b.non_monotone,
+                "runs": b.runs,
+                "wall_time_s": o.rollout_time_s,
+                "max_held_force_pct_weight": 100.0 * b.max_ok / (mass * GRAVITY),
+            }
+        )
     return {
         "preset": config.name,
         "robot": config.robot.model,
@@ -193,6 +298,7 @@ def ramp_test(config: Config, settings: SweepSettings, *, max_force_n: float) ->
         "preset_force_n": float(np.linalg.norm(force)),
         "run_end_s": config.sim.duration,
         "resolution_n": max_force_n / settings.grid / 2**settings.iterations,
-        "wall_time_s": time.perf_counter() - wall,
+        "wall_time_s": sweep.wall_time_s,
+        "rollouts": _counts(sweep),
         "rows": rows,
     }

@@ -1,5 +1,5 @@
-"""Reporting a sweep's result: ratios to tracking, text tables, envelope.json / envelope.csv and
-the polar plot envelope.png."""
+"""Reporting a sweep's result: ratios to tracking, envelope metrics (weakest direction, mean,
+area), text tables, envelope.json / envelope.csv and the polar plot envelope.png."""
 
 from __future__ import annotations
 
@@ -27,6 +27,38 @@ def ratios(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 row[f"{name}/tracking"] = value / base if base else None
         out.append(row)
     return out
+
+
+METRICS = ("weakest", "mean", "area")
+
+
+def envelope_metric(
+    rows: list[dict[str, Any]], metric: str, controller: str | None = None
+) -> float:
+    """One number for an envelope (one controller's rows; ``controller`` None: all rows).
+
+    ``weakest``: the smallest max impulse over the directions (N·s); ``mean``: their mean (N·s);
+    ``area``: the area of the polar polygon through them, ½ Σ J_i J_{i+1} sin(θ_{i+1} − θ_i)
+    ((N·s)², directions in order, closed).
+    """
+    mine = sorted(
+        (r for r in rows if controller is None or r["controller"] == controller),
+        key=lambda r: r["direction_deg"],
+    )
+    if not mine:
+        raise ValueError(f"no envelope rows for controller {controller!r}")
+    j = np.array([r["max_impulse_ns"] for r in mine], dtype=float)
+    if metric == "weakest":
+        return float(j.min())
+    if metric == "mean":
+        return float(j.mean())
+    if metric == "area":
+        theta = np.radians([r["direction_deg"] for r in mine])
+        dtheta = (np.roll(theta, -1) - theta) % (2.0 * np.pi)
+        if len(mine) == 1:
+            return 0.0
+        return float(0.5 * np.sum(j * np.roll(j, -1) * np.sin(dtheta)))
+    raise ValueError(f"metric {metric!r}: allowed {', '.join(METRICS)}")
 
 
 def table(result: dict[str, Any]) -> str:

@@ -1,9 +1,17 @@
 """The largest push a walk survives: rollouts of one trial with different push forces, and the
-1-D boundary search over the push magnitude (coarse grid, then bisection)."""
+1-D boundary search over the push magnitude (coarse grid, then bisection).
+
+A rollout is a pure function of (trial, force): :func:`prefix_snapshot` simulates a trial up to
+the push once and pickles the session; :func:`rollout` unpickles such a snapshot (or walks the
+prefix itself) and walks on with one push.  The serial path and the Ray tasks run exactly this
+code, so they give identical numbers.  :class:`BoundarySearch` is the search as a state machine
+(ask for probes, tell their outcomes), so many searches can be driven concurrently.
+"""
 
 from __future__ import annotations
 
-import copy
+import pickle
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -26,40 +34,89 @@ class Trial:
     ramp_s: float = 0.0
 
 
+@dataclass(frozen=True)
+class RolloutResult:
+    """What one rollout measured."""
+
+    survived: bool  # not fallen by the trial's end_s
+    fall_time_s: float | None  # None if it did not fall
+    max_dcm_error_m: float  # largest |ξ − ξ_ref| before a fall, over the whole run
+    wall_time_s: float  # of this rollout (the shared prefix not included)
+
+    def to_dict(self) -> dict:
+        return {
+            "survived": self.survived,
+            "fall_time_s": self.fall_time_s,
+            "max_dcm_error_m": self.max_dcm_error_m,
+            "wall_time_s": self.wall_time_s,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> RolloutResult:
+        return cls(
+            bool(d["survived"]),
+            None if d.get("fall_time_s") is None else float(d["fall_time_s"]),
+            float(d.get("max_dcm_error_m", 0.0)),
+            float(d.get("wall_time_s", 0.0)),
+        )
+
+
+def _walk_to_push(trial: Trial) -> Session:
+    session = Session(trial.config, backend=trial.backend)
+    session.run(max(0.0, trial.start_s - session.t), stop_on_fall=True)
+    return session
+
+
+def prefix_snapshot(trial: Trial) -> bytes | None:
+    """The session walked to the push start, pickled; None if the backend cannot be pickled
+    (each rollout then walks the prefix itself, with the same result)."""
+    session = _walk_to_push(trial)
+    try:
+        return pickle.dumps(session, protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception:  # noqa: BLE001 - any backend that refuses to be pickled
+        return None
+
+
+def rollout(trial: Trial, snapshot: bytes | None, force: Sequence[float]) -> RolloutResult:
+    """Walk on from ``snapshot`` (or from the start) with one push of ``force`` (N, world)."""
+    wall = time.perf_counter()
+    session = pickle.loads(snapshot) if snapshot is not None else _walk_to_push(trial)
+    session.push(
+        [float(f) for f in force],
+        trial.duration_s,
+        ramp=trial.ramp_s,
+        body=trial.body,
+        start=trial.start_s,
+    )
+    session.run(trial.end_s - session.t, stop_on_fall=True)
+    m = session.metrics
+    return RolloutResult(
+        survived=not m.fell,
+        fall_time_s=m.fall_time_s,
+        max_dcm_error_m=float(m.max_dcm_error_m),
+        wall_time_s=time.perf_counter() - wall,
+    )
+
+
 class Rollouts:
-    """Rollouts of one trial with different push forces.
+    """Rollouts of one trial with different push forces, in this process.
 
     Every rollout is identical until the push starts, so the session is simulated to that instant
-    once and deep-copied for each force (falls back to a fresh run if the backend cannot be copied).
+    once (:func:`prefix_snapshot`) and each force starts from a copy of it (:func:`rollout`).
     """
 
     def __init__(self, trial: Trial) -> None:
         self.trial = trial
         self.runs = 0
-        session = Session(trial.config, backend=trial.backend)
-        session.run(max(0.0, trial.start_s - session.t), stop_on_fall=True)
-        try:
-            self.snapshot: Session | None = copy.deepcopy(session)
-        except Exception:  # noqa: BLE001 - any backend that refuses to be copied
-            self.snapshot = None
+        self.snapshot = prefix_snapshot(trial)
 
-    def _start(self) -> Session:
-        if self.snapshot is not None:
-            return copy.deepcopy(self.snapshot)
-        session = Session(self.trial.config, backend=self.trial.backend)
-        session.run(max(0.0, self.trial.start_s - session.t), stop_on_fall=True)
-        return session
+    def run(self, force: Sequence[float]) -> RolloutResult:
+        self.runs += 1
+        return rollout(self.trial, self.snapshot, force)
 
     def survives(self, force: Sequence[float]) -> bool:
         """Walk on with one push of ``force`` (N, world); True if not fallen by ``end_s``."""
-        trial = self.trial
-        session = self._start()
-        session.push(
-            force, trial.duration_s, ramp=trial.ramp_s, body=trial.body, start=trial.start_s
-        )
-        session.run(trial.end_s - session.t, stop_on_fall=True)
-        self.runs += 1
-        return not session.fell
+        return self.run(force).survived
 
 
 def survives(trial: Trial, force: Sequence[float]) -> bool:
@@ -81,6 +138,88 @@ class Boundary:
         return self.first_fail is None
 
 
+class BoundarySearch:
+    """Coarse grid over (0, hi], then bisection below the first failing grid point, as a state
+    machine: :meth:`ask` hands out the probes the search needs now (the whole grid at once, then
+    one bisection midpoint at a time), :meth:`tell` takes their outcomes in any order.
+
+    The probes and the result do not depend on the order of the answers, so a search driven
+    concurrently ends exactly where :func:`find_boundary` does.
+    """
+
+    def __init__(self, hi: float, *, grid: int = 6, iterations: int = 7) -> None:
+        self.hi, self.grid, self.iterations = hi, grid, iterations
+        self._points = [hi * (i + 1) / grid for i in range(grid)]
+        self._grid_ok: dict[float, bool] = {}
+        self._asked: list[float] = []  # handed out, not answered
+        self._lo = 0.0
+        self._fail: float | None = None
+        self._hi_b = hi
+        self._above: list[float] = []
+        self._mid: float | None = None
+        self._bisections = 0
+        self.runs = 0
+        self.result: Boundary | None = None
+        self._phase = "grid"
+
+    @property
+    def done(self) -> bool:
+        return self.result is not None
+
+    @property
+    def max_runs(self) -> int:
+        """Upper bound of the probes this search takes (grid + iterations)."""
+        return self.grid + self.iterations
+
+    def ask(self) -> list[float]:
+        """Probes to run now that were not handed out before (empty: wait for answers)."""
+        if self.done or self._asked:
+            return []
+        if self._phase == "grid" and not self._grid_ok:
+            self._asked = list(self._points)
+        elif self._phase == "bisect":
+            self._mid = 0.5 * (self._lo + self._hi_b)
+            self._asked = [self._mid]
+        return list(self._asked)
+
+    def tell(self, x: float, ok: bool) -> None:
+        """The outcome of probe ``x`` (True: survived)."""
+        if x not in self._asked:
+            raise ValueError(f"probe {x!r} was not asked (or was answered already)")
+        self._asked.remove(x)
+        self.runs += 1
+        if self._phase == "grid":
+            self._grid_ok[x] = ok
+            if len(self._grid_ok) == len(self._points):
+                self._end_grid()
+            return
+        if ok:
+            self._lo = x
+        else:
+            self._hi_b = x
+        self._bisections += 1
+        if self._bisections == self.iterations:
+            self.result = Boundary(self._lo, self._hi_b, self._above, self.runs)
+
+    def _end_grid(self) -> None:
+        survived = []
+        for p in self._points:
+            if self._grid_ok[p]:
+                survived.append(p)
+                if self._fail is None:
+                    self._lo = p
+            elif self._fail is None:
+                self._fail = p  # keep scanning: a survivor above it shows non-monotonicity
+        if self._fail is None:
+            self.result = Boundary(self._lo, None, [], self.runs)
+            return
+        self._above = [p for p in survived if p > self._fail]
+        self._hi_b = self._fail
+        self._phase = "bisect"
+        if self.iterations == 0:
+            self.result = Boundary(self._lo, self._hi_b, self._above, self.runs)
+
+
 def find_boundary(
     ok: Callable[[float], bool], hi: float, *, grid: int = 6, iterations: int = 7
 ) -> Boundary:
@@ -88,30 +227,12 @@ def find_boundary(
 
     ``ok(0)`` is assumed true.  The result's resolution is hi / grid / 2**iterations.
     """
-    points = [hi * (i + 1) / grid for i in range(grid)]
-    runs = 0
-    lo, fail = 0.0, None
-    survived_grid: list[float] = []
-    for p in points:
-        runs += 1
-        if ok(p):
-            survived_grid.append(p)
-            if fail is None:
-                lo = p
-        elif fail is None:
-            fail = p  # keep scanning: a survivor above it shows non-monotonicity
-    if fail is None:
-        return Boundary(lo, None, [], runs)
-    above = [p for p in survived_grid if p > fail]
-    hi_b = fail
-    for _ in range(iterations):
-        mid = 0.5 * (lo + hi_b)
-        runs += 1
-        if ok(mid):
-            lo = mid
-        else:
-            hi_b = mid
-    return Boundary(lo, hi_b, above, runs)
+    search = BoundarySearch(hi, grid=grid, iterations=iterations)
+    while not search.done:
+        for x in search.ask():
+            search.tell(x, ok(x))
+    assert search.result is not None
+    return search.result
 
 
 def push_window(config: Config, step: int, phase: float) -> tuple[float, float, float]:
