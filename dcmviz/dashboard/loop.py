@@ -63,6 +63,7 @@ class Snapshot:
     tick: Tick | None = None  # the session's record of the last tick (None right after a reset)
     version: int = 0  # config version this snapshot was simulated with
     note: str = ""  # what the last config change did, for the status line
+    note_seq: int = 0  # counts config changes that set a note (a repeated note is a new one)
     step_time_s: float = 0.0  # mean wall time of one control tick
 
 
@@ -91,6 +92,7 @@ class SimLoop:
         self.resets = 0  # reset commands handled (tests and the status line watch it)
         self.version = 0
         self.note = ""  # what the last config change did ("gains changed (walk continues)", …)
+        self.note_seq = 0  # incremented with every note
         self.snapshot = Snapshot()
         self._commands: queue.Queue[tuple[str, Any]] = queue.Queue()
         self._stop = threading.Event()
@@ -251,6 +253,7 @@ class SimLoop:
             self._fallen_at = None
         if change:
             self.note = change
+            self.note_seq += 1
 
     # -- snapshots --------------------------------------------------------------------------------
     def real_time_factor(self) -> float:
@@ -279,6 +282,7 @@ class SimLoop:
             history=history,
             version=self.version,
             note=self.note,
+            note_seq=self.note_seq,
             step_time_s=float(np.mean(self._step_times)) if self._step_times else 0.0,
         )
         if tick is None:  # reset, not stepped yet: the walk's plan, standing
