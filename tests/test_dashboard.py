@@ -46,8 +46,10 @@ def dash() -> Iterator[Dashboard]:
 
 
 def drain(d: Dashboard) -> None:
-    """Apply the commands the callbacks posted to the (not running) simulation loop."""
+    """Apply the commands the callbacks posted to the (not running) simulation loop, and draw
+    the walked plan as the plan view's thread would."""
     d.loop._handle_commands()
+    d.preview.update(d.loop.snapshot)
 
 
 def test_slider_ranges_follow_the_schema() -> None:
@@ -69,24 +71,106 @@ def slider_range_of(section: str, name: str) -> tuple[float, float]:
 
 
 def test_field_change_rebuilds_preview_and_session(dash: Dashboard) -> None:
-    assert dash.on_field_change("gait", "n_steps", 12.0)
+    assert dash.editor.on_field_change("gait", "n_steps", 12.0)
     assert dash.config.gait.n_steps == 12
-    assert dash.preview.wait(dash.version)
-    assert len([s for s in dash.preview.data.soles if s.index >= 0]) == 12
+    assert not dash.preview.wait(dash.version, timeout=0.0)  # the walk has not taken it yet
     drain(dash)
+    assert dash.preview.wait(dash.version, timeout=0.0)
     assert dash.loop.session.config == dash.config
-    assert len(dash.loop.session.plan.steps) == 12
-    # the preview is the plan's closed form, sampled: its end is the plan's last VRP waypoint
-    plan = plan_from_config(dash.config)
-    np.testing.assert_allclose(dash.preview.data.vrp[-1], plan.preview.waypoints[-1], atol=1e-9)
+    assert len([s for s in dash.preview.data.soles if s.index >= 0]) == 12
+    # the preview is the walked plan's closed form, sampled: it ends on its last VRP waypoint
+    walked = dash.loop.session.plan
+    assert dash.preview.plan is walked
+    np.testing.assert_allclose(dash.preview.data.vrp[-1], walked.preview.waypoints[-1], atol=1e-9)
+
+
+def start_feet_drawn(dash: Dashboard) -> dict[str, np.ndarray]:
+    return {s.side: s.position for s in dash.preview.data.soles if s.index < 0}
+
+
+def test_preview_is_the_walked_plan_from_the_measured_feet(dash: Dashboard) -> None:
+    """After a step-width change the walk starts from where the feet stand (±foot_spacing/2),
+    not from the preset's ±step_width/2: the drawn plan is the walked one."""
+    assert dash.editor.on_field_change("gait", "step_width", 0.25)
+    drain(dash)
+    session = dash.loop.session
+    drawn = start_feet_drawn(dash)
+    spacing = get_spec("talos").foot_spacing_m
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        np.testing.assert_allclose(drawn[side], session.plan.start_feet[side].position)
+        assert drawn[side][1] == pytest.approx(sign * spacing / 2, abs=1e-6)  # measured
+        assert abs(drawn[side][1] - sign * 0.125) > 0.03  # not the preset's step_width/2
+    preset = plan_from_config(dash.config)  # what the old preview drew
+    assert not np.allclose(preset.preview.waypoints[:3], dash.preview.data.waypoints[:3])
+
+
+def test_g1_preset_previews_its_walked_plan(dash: Dashboard) -> None:
+    assert dash.preset_panel.on_preset_selected("g1_walk")
+    drain(dash)
+    walked = dash.loop.session.plan
+    assert dash.preview.plan is walked and dash.config.robot.model == "g1"
+    np.testing.assert_allclose(dash.preview.data.waypoints, walked.preview.waypoints)
+    assert dash.preview.data.foot_length == get_spec("g1").foot_length_m
+
+
+def test_gain_change_keeps_the_walk_and_the_drawn_plan(dash: Dashboard) -> None:
+    session = dash.loop.session
+    for _ in range(200):
+        session.step()
+    drain(dash)
+    t, draws, version = session.t, dash.preview.draws, dash.preview.drawn_plan_version
+    assert dash.editor.on_field_change("control", "k_xi", 5.0)
+    drain(dash)
+    assert dash.loop.session is session and session.t == t  # not restarted
+    assert session.config.control.k_xi == 5.0
+    assert dash.preview.wait(dash.version, timeout=0.0)  # this version is shown ...
+    assert dash.preview.draws == draws and dash.preview.drawn_plan_version == version  # as is
+    snap = dash.loop.snapshot
+    assert snap.note == "gains changed (walk continues)"
+    assert "gains changed (walk continues)" in dash.view.status.text(snap, 40.0, 0.0)
+    assert dash.editor.on_field_change("gait", "t_ss", 0.8)
+    drain(dash)
+    snap = dash.loop.snapshot
+    assert snap.note == "restarted: gait changed" and session.t == 0.0
+    assert dash.preview.drawn_plan_version == snap.plan_version != version
+
+
+def test_status_shows_a_change_for_a_few_seconds(dash: Dashboard) -> None:
+    from dcmviz.dashboard.status import NOTE_SHOW_S
+
+    status = dash.view.status
+    assert dash.editor.on_field_change("control", "k_f", 12.0)
+    drain(dash)
+    snap = dash.loop.snapshot
+    assert status.is_new(snap)
+    assert "gains changed" in status.text(snap, 40.0, now=100.0)  # first seen at t = 100 s
+    assert "gains changed" in status.text(snap, 40.0, now=100.0 + NOTE_SHOW_S - 0.1)
+    assert "gains changed" not in status.text(snap, 40.0, now=100.0 + NOTE_SHOW_S + 0.1)
+    assert dash.editor.on_field_change("control", "k_f", 11.0)  # the same note again: shown
+    drain(dash)
+    snap = dash.loop.snapshot
+    assert "gains changed" in status.text(snap, 40.0, now=200.0)
+
+
+def test_continuous_mode_redraws_the_receding_horizon(dash: Dashboard) -> None:
+    assert dash.editor.on_field_change("gait", "mode", "continuous")
+    drain(dash)
+    session = dash.loop.session
+    first = dash.preview.plan
+    for _ in range(int(3.0 / session.backend.control_dt)):
+        session.step()
+    dash.loop._publish()
+    assert dash.preview.update(dash.loop.snapshot)  # the horizon moved: drawn again
+    assert dash.preview.plan is session.plan is not first
+    assert dash.preview.data.t[0] == pytest.approx(session.plan.t0)
 
 
 def test_order_dropdown_and_b_show_dz(dash: Dashboard) -> None:
-    assert dash.on_field_change("dcm", "order", "3")
+    assert dash.editor.on_field_change("dcm", "order", "3")
     assert dash.config.dcm.order == 3
-    assert dash.on_field_change("dcm", "b", 0.32)
-    assert "0.32" in dash.controls.extra["dz_vrp"].content
-    assert f"{9.81 * 0.32**2:.3f}" in dash.controls.extra["dz_vrp"].content
+    assert dash.editor.on_field_change("dcm", "b", 0.29)
+    assert "0.29" in dash.controls.extra["dz_vrp"].content
+    assert f"{9.81 * 0.29**2:.3f}" in dash.controls.extra["dz_vrp"].content
 
 
 def test_bad_value_is_refused_and_control_reverts(dash: Dashboard) -> None:
@@ -94,7 +178,7 @@ def test_bad_value_is_refused_and_control_reverts(dash: Dashboard) -> None:
     version = dash.version
     handle = dash.controls.handles[("gait", "step_width")]
     handle.value = 0.06  # what the browser would send (the callback is suppressed here)
-    assert not dash.on_field_change("gait", "step_width", 0.06)  # feet collide (min 0.14 m)
+    assert not dash.editor.on_field_change("gait", "step_width", 0.06)  # feet collide (min 0.14 m)
     assert dash.config is before and dash.version == version
     assert handle.value == pytest.approx(before.gait.step_width)
     title, body = dash.notifications[-1]
@@ -103,7 +187,7 @@ def test_bad_value_is_refused_and_control_reverts(dash: Dashboard) -> None:
 
 def test_out_of_schema_value_is_refused(dash: Dashboard) -> None:
     before = dash.config
-    assert not dash.on_field_change("gait", "t_ss", -0.7)
+    assert not dash.editor.on_field_change("gait", "t_ss", -0.7)
     assert dash.config is before
     assert "t_ss" in dash.notifications[-1][1]
 
@@ -111,7 +195,7 @@ def test_out_of_schema_value_is_refused(dash: Dashboard) -> None:
 def test_dragging_a_footstep_makes_footsteps_explicit(dash: Dashboard) -> None:
     plan = plan_from_config(dash.config)
     target = plan.steps[3].position + [0.05, 0.03, 0.0]
-    assert dash.on_footstep_moved(3, target)
+    assert dash.editor.on_footstep_moved(3, target)
     steps = dash.config.gait.footsteps
     assert steps is not None and len(steps) == len(plan.steps)
     np.testing.assert_allclose(steps[3].position, target)
@@ -121,46 +205,46 @@ def test_dragging_a_footstep_makes_footsteps_explicit(dash: Dashboard) -> None:
     # across the stance foot: refused, explicit footsteps unchanged
     crossing = plan.steps[4].position.copy()
     crossing[1] = -crossing[1]
-    assert not dash.on_footstep_moved(4, crossing)
+    assert not dash.editor.on_footstep_moved(4, crossing)
     np.testing.assert_allclose(dash.config.gait.footsteps[4].position, plan.steps[4].position)
     # a geometric slider regenerates the footsteps
-    assert dash.on_field_change("gait", "step_length", 0.25)
+    assert dash.editor.on_field_change("gait", "step_length", 0.25)
     assert dash.config.gait.footsteps is None
 
 
 def test_presets_dropdown_upload_and_export(dash: Dashboard) -> None:
-    assert "lateral_push" in dash.preset_names()
-    assert dash.on_preset_selected("lateral_push")
+    assert "lateral_push" in dash.preset_panel.preset_names()
+    assert dash.preset_panel.on_preset_selected("lateral_push")
     assert dash.config == load_preset(PRESETS / "lateral_push.toml")
     assert dash.controls.handles[("gait", "t_ss")].value == dash.config.gait.t_ss
 
     text = dumps_preset(Config().replace(gait={"n_steps": 4}, sim={"backend": "lip"}))
-    assert dash.on_upload("mine.toml", text.encode(), None)
+    assert dash.preset_panel.on_upload("mine.toml", text.encode(), None)
     assert dash.config.gait.n_steps == 4
 
     before = dash.config
-    assert not dash.on_upload("big.toml", b"#" * (MAX_PRESET_BYTES + 1), None)
-    assert not dash.on_upload("bad.toml", b"[gait]\nt_ss = -1.0\n", None)
-    assert not dash.on_upload("junk.toml", b"\xff\xfe not text", None)
+    assert not dash.preset_panel.on_upload("big.toml", b"#" * (MAX_PRESET_BYTES + 1), None)
+    assert not dash.preset_panel.on_upload("bad.toml", b"[gait]\nt_ss = -1.0\n", None)
+    assert not dash.preset_panel.on_upload("junk.toml", b"\xff\xfe not text", None)
     assert dash.config is before
     assert "t_ss" in dash.notifications[-2][1]
 
-    exported = dash.on_export(None)
+    exported = dash.preset_panel.on_export(None)
     assert loads_preset(exported.decode()) == dash.config
 
 
 def test_push_is_validated_and_posted(dash: Dashboard) -> None:
-    dash.gui_push_direction.value = 90.0
-    dash.gui_push_magnitude.value = 100.0
-    assert dash.on_push()
+    dash.push_panel.gui_push_direction.value = 90.0
+    dash.push_panel.gui_push_magnitude.value = 100.0
+    assert dash.push_panel.on_push()
     drain(dash)
     push = dash.loop.session.pushes[-1]
     np.testing.assert_allclose(push.force, [0.0, 100.0, 0.0], atol=1e-9)
-    assert push.body == dash.gui_push_body.value
-    dash.gui_push_ramp.value = 1.0  # longer than the push: refused
-    assert not dash.push((1.0, 0.0, 0.0), 50.0, "torso", None)
+    assert push.body == dash.push_panel.gui_push_body.value
+    dash.push_panel.gui_push_ramp.value = 1.0  # longer than the push: refused
+    assert not dash.push_panel.push((50.0, 0.0, 0.0), "torso", None)
     assert "ramp" in dash.notifications[-1][1]
-    assert not dash.push((1.0, 0.0, 0.0), 50.0, "elbow", None)
+    assert not dash.push_panel.push((50.0, 0.0, 0.0), "elbow", None)
 
 
 def test_push_raises_and_recovers_dcm_error(dash: Dashboard) -> None:
@@ -168,8 +252,8 @@ def test_push_raises_and_recovers_dcm_error(dash: Dashboard) -> None:
     session = loop.session
     for _ in range(int(2.0 / session.backend.control_dt)):
         session.step()
-    dash.gui_push_duration.value = 0.2
-    assert dash.push((0.0, 1.0, 0.0), 80.0, "torso", None)
+    dash.push_panel.gui_push_duration.value = 0.2
+    assert dash.push_panel.push((0.0, 80.0, 0.0), "torso", None)
     drain(dash)
     errors = []
     for _ in range(int(3.0 / session.backend.control_dt)):
@@ -187,7 +271,7 @@ def test_fall_notifies_and_resets() -> None:
     try:
         d.loop.start()
         time.sleep(0.3)
-        assert d.push((1.0, 0.0, 0.0), 1000.0, "torso", None)
+        assert d.push_panel.push((1000.0, 0.0, 0.0), "torso", None)
         deadline = time.time() + 10.0
         while d.loop.falls == 0 and time.time() < deadline:
             time.sleep(0.05)
@@ -203,11 +287,11 @@ def test_fall_notifies_and_resets() -> None:
 
 
 def test_record_returns_rerun_bytes(dash: Dashboard) -> None:
-    assert dash.on_record(True, None) is None
+    assert dash.recording.on_record(True, None) is None
     assert len(dash.loop.session.subscribers) == 1
     for _ in range(50):
         dash.loop.session.step()
-    data = dash.on_record(False, None)
+    data = dash.recording.on_record(False, None)
     assert data is not None and len(data) > 1000 and data[:4] == b"RRF2"
     assert dash.loop.session.subscribers == ()
     assert dash.notifications[-1][0] == "Recording ready"
@@ -228,9 +312,9 @@ def test_preview_data_matches_plan() -> None:
 def test_clicking_the_robot_pushes_along_the_view(dash: Dashboard) -> None:
     from types import SimpleNamespace
 
-    dash.gui_push_magnitude.value = 60.0
+    dash.push_panel.gui_push_magnitude.value = 60.0
     event = SimpleNamespace(ray_direction=(0.6, 0.0, -0.8), client=None)  # looking down, +x
-    assert dash.on_body_click("pelvis", event)
+    assert dash.push_panel.on_body_click("pelvis", event)
     drain(dash)
     push = dash.loop.session.pushes[-1]
     np.testing.assert_allclose(push.force, [60.0, 0.0, 0.0], atol=1e-9)  # horizontal part only
@@ -243,44 +327,47 @@ def test_dragged_slider_configs_coalesce(dash: Dashboard) -> None:
     original = session.set_config
     session.set_config = lambda *a, **k: (resets.append(a[0]), original(*a, **k))[1]
     for value in (0.21, 0.22, 0.23, 0.24):
-        assert dash.on_field_change("gait", "step_length", value)
+        assert dash.editor.on_field_change("gait", "step_length", value)
     drain(dash)
     assert len(resets) == 1 and resets[0].gait.step_length == 0.24
     assert dash.loop.version == dash.version
 
 
 def test_mode_robot_and_backend_switch(dash: Dashboard) -> None:
-    assert dash.on_field_change("gait", "mode", "continuous")
+    assert dash.editor.on_field_change("gait", "mode", "continuous")
     drain(dash)
     session = dash.loop.session
     for _ in range(int(4.0 / session.backend.control_dt)):
         session.step()
     assert session.steps_completed >= 2 and not session.fell
-    assert dash.on_field_change("robot", "model", "g1")
+    assert dash.editor.on_field_change("robot", "model", "g1")  # Talos's b = 0.30 s is too high
     drain(dash)
     assert dash.loop.session.config.robot.model == "g1"
-    assert dash.gui_push_body.options == tuple(get_spec("g1").bodies)
+    lo, hi = get_spec("g1").b_range_s
+    assert lo <= dash.config.dcm.b <= hi and dash.config.dcm.b == pytest.approx(0.261)
+    assert dash.controls.handles[("dcm", "b")].value == dash.config.dcm.b
+    assert dash.push_panel.gui_push_body.options == tuple(get_spec("g1").bodies)
     dash.loop._publish()
     assert dash.loop.snapshot.robot == "g1" and dash.loop.snapshot.backend == "lip"
 
 
 def test_play_pause_reset_speed(dash: Dashboard) -> None:
-    dash.on_play(False)
-    assert dash.gui_play.label == "Play"
-    dash.on_speed(0.5)
-    dash.on_reset()
+    dash.sim_panel.on_play(False)
+    assert dash.sim_panel.gui_play.label == "Play"
+    dash.sim_panel.on_speed(0.5)
+    dash.sim_panel.on_reset()
     drain(dash)
     assert not dash.loop.playing and dash.loop.speed == 0.5 and dash.loop.resets == 1
-    dash.on_play(True)
-    assert dash.gui_play.label == "Pause"
+    dash.sim_panel.on_play(True)
+    assert dash.sim_panel.gui_play.label == "Pause"
 
 
 def test_preset_dropdown_follows_edits(dash: Dashboard) -> None:
-    dash.gui_preset.value = "lateral_push"  # as the browser would: runs the callback
+    dash.preset_panel.gui_preset.value = "lateral_push"  # as the browser would: runs the callback
     assert dash.config.name == load_preset(PRESETS / "lateral_push.toml").name
-    assert dash.gui_preset.value == "lateral_push"
-    assert dash.on_field_change("control", "k_xi", 4.0)
-    assert dash.gui_preset.value == "(current)"  # edited: no longer the preset file
+    assert dash.preset_panel.gui_preset.value == "lateral_push"
+    assert dash.editor.on_field_change("control", "k_xi", 4.0)
+    assert dash.preset_panel.gui_preset.value == "(current)"  # edited: no longer the preset file
     assert dash.config.control.k_xi == 4.0
 
 
@@ -326,7 +413,53 @@ def test_app_serves_on_loopback() -> None:
 
 def test_export_with_dragged_footsteps_loads_back(dash: Dashboard) -> None:
     plan = plan_from_config(dash.config)
-    assert dash.on_footstep_moved(1, plan.steps[1].position + [0.04, -0.02, 0.0])
-    assert dash.on_field_change("dcm", "order", "3")
-    config = loads_preset(dash.on_export(None).decode())
+    assert dash.editor.on_footstep_moved(1, plan.steps[1].position + [0.04, -0.02, 0.0])
+    assert dash.editor.on_field_change("dcm", "order", "3")
+    config = loads_preset(dash.preset_panel.on_export(None).decode())
     assert config == dash.config and config.gait.footsteps is not None
+
+
+def test_robot_meshes_push_the_body_they_belong_to() -> None:
+    from dcmviz.dashboard.robot_view import push_body
+    from dcmviz.visual import robot_visual
+
+    visual = robot_visual("talos")
+    bodies = get_spec("talos").bodies
+    by_link = {m.link: push_body(m.ancestors, bodies) for m in visual.meshes}
+    assert by_link["arm_left_4_link"] == "torso" and by_link["head_2_link"] == "torso"
+    assert (
+        by_link["leg_left_3_link"] == "left_thigh" and by_link["leg_right_6_link"] == "right_thigh"
+    )
+    assert by_link["base_link"] == "pelvis" and by_link["leg_left_1_link"] == "pelvis"
+
+
+def test_robot_view_moves_only_what_moved() -> None:
+    """Meshes are added once; a pose moves the base frame and the meshes that moved relative
+    to it (a bent knee: the shank and foot meshes), through public handle properties."""
+    from dcmviz.backend import RobotPose
+    from dcmviz.dashboard.robot_view import RobotView
+    from dcmviz.visual import robot_visual
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    try:
+        visual = robot_visual("talos")
+        clicks = []
+        view = RobotView(server, visual, on_body_click=lambda body, event: clicks.append(body))
+        assert len(view.meshes) == len(visual.meshes)
+        pose = RobotPose(np.array([0.1, 0.0, 1.0]), np.array([1.0, 0.0, 0.0, 0.0]), {})
+        view.update(pose)
+        bent = RobotPose(pose.base_position, pose.base_wxyz, {"leg_left_4_joint": 0.6})
+        moved = view.update(bent)
+        shank = [
+            i
+            for i, m in enumerate(visual.meshes)
+            if m.link in ("leg_left_4_link", "leg_left_5_link", "leg_left_6_link")
+        ]
+        assert moved == len(shank)
+        expected = visual.in_base(bent.joints)
+        for i in shank:
+            np.testing.assert_allclose(view.meshes[i].position, expected.position[i], atol=1e-6)
+        np.testing.assert_allclose(view.root.position, pose.base_position)
+        assert view.update(bent) == 0  # the same pose again: nothing is sent
+    finally:
+        server.stop()

@@ -85,7 +85,11 @@ def page(browser, app):
 
 def number_input(page, dashboard: Dashboard, key: tuple[str, str]):
     """The number box next to a slider (the slider root carries the handle's uuid)."""
-    handle = dashboard.push_handles[key[1]] if key[0] == "push" else dashboard.controls.handles[key]
+    handle = (
+        dashboard.push_panel.handles[key[1]]
+        if key[0] == "push"
+        else dashboard.controls.handles[key]
+    )
     uuid = handle._impl.uuid
     return (
         page.locator(f"[id='{uuid}']").locator("xpath=..").locator("input:not([type=hidden])").first
@@ -117,12 +121,14 @@ def test_slider_changes_preview(page, app, shots: Path) -> None:
 def test_bad_typed_value_reverts(page, app, shots: Path) -> None:
     dashboard, _ = app
     before = dashboard.config
-    box = number_input(page, dashboard, ("gait", "t_ss"))
-    box.fill("0.05")
+    box = number_input(page, dashboard, ("gait", "step_width"))
+    box.fill("0.06")  # on the slider, but Talos's feet would collide (at least 0.14 m)
     box.press("Enter")
-    assert wait_for(lambda: dashboard.notifications and "t_ss" in dashboard.notifications[-1][1])
+    assert wait_for(
+        lambda: dashboard.notifications and "step_width" in dashboard.notifications[-1][1]
+    )
     assert dashboard.config == before
-    assert wait_for(lambda: box.input_value() == str(before.gait.t_ss))
+    assert wait_for(lambda: box.input_value() == str(before.gait.step_width))
     page.get_by_text("Invalid value").first.wait_for(timeout=5_000)
     page.screenshot(path=shots / "03_invalid_value.png")
 
@@ -138,7 +144,7 @@ def test_push_raises_and_recovers_dcm_error(page, app, shots: Path) -> None:
     magnitude = number_input(page, dashboard, ("push", "magnitude"))
     magnitude.fill("80")
     magnitude.press("Enter")
-    assert wait_for(lambda: dashboard.gui_push_magnitude.value == 80.0)
+    assert wait_for(lambda: dashboard.push_panel.gui_push_magnitude.value == 80.0)
     session = dashboard.loop.session
     n_pushes = len(session.pushes)
     page.get_by_role("button", name="Push", exact=True).click()
@@ -214,7 +220,7 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
     import viser.transforms as vtf
 
     dashboard, _ = app
-    dashboard.on_play(False)
+    dashboard.sim_panel.on_play(False)
     time.sleep(0.3)
     client = list(dashboard.server.get_clients().values())[-1]
     com = np.asarray(dashboard.loop.snapshot.com)
@@ -245,4 +251,75 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
     assert push.body == "torso"
     assert push.force[0] > 0.8 * np.linalg.norm(push.force)  # along the view, horizontal
     page.screenshot(path=shots / "07_click_push.png")
-    dashboard.on_play(True)
+    dashboard.sim_panel.on_play(True)
+
+
+def test_dragging_k_xi_changes_tracking_without_restart(page, app, shots: Path) -> None:
+    """Issue 8: drag the k_ξ slider while the robot walks.  Every tick during and after the drag
+    is recorded on the simulation thread with the gain in effect: the walk's clock never goes
+    back (no restart), the session's k_ξ is the dragged value, and each command obeys eq. (41),
+    v_cmd = v_ref + (1 + k_ξ b)(ξ − ξ_adj), with the gain of its tick, not the old one."""
+    dashboard, _ = app
+    loop = dashboard.loop
+    assert dashboard.editor.on_field_change("gait", "mode", "continuous")  # never loops back
+    assert wait_for(lambda: loop.session.config.gait.mode == "continuous", timeout=10)
+    session = loop.session
+    assert wait_for(lambda: session.t > 1.5, timeout=15)  # walking
+    k_before = session.config.control.k_xi
+    ticks: list = []
+    unsubscribe = session.subscribe(
+        lambda tick: ticks.append((tick, session.config.control.k_xi, session.config.dcm.b))
+    )
+    try:
+        page.get_by_role("tab", name="Plan").click()
+        handle = dashboard.controls.handles[("control", "k_xi")]
+        thumb = page.locator(f"[id='{handle._impl.uuid}']").locator("[role=slider]").first
+        thumb.scroll_into_view_if_needed()
+        track = page.locator(f"[id='{handle._impl.uuid}']").bounding_box()
+        box = thumb.bounding_box()
+        x0, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+        target = 8.0
+        x1 = track["x"] + track["width"] * (target - handle.min) / (handle.max - handle.min)
+        n_notes = loop.note_seq
+        page.mouse.move(x0, y)
+        page.mouse.down()
+        page.mouse.move(x1, y, steps=12)  # a drag: a stream of values
+        page.mouse.up()
+        assert wait_for(lambda: loop.note_seq > n_notes and handle.value > k_before + 2.0)
+        k_after = handle.value
+        assert wait_for(lambda: session.config.control.k_xi == k_after)
+        assert dashboard.config.control.k_xi == k_after
+        page.get_by_text("gains changed (walk continues)").first.wait_for(timeout=5_000)
+        page.screenshot(path=shots / "08_k_xi_dragged.png")
+        # a lateral push moves ξ away from ξ_adj, so eq. (41) with the new gain is tested
+        loop.post(
+            "push", {"force": (0.0, 40.0, 0.0), "duration": 3.0, "ramp": 0.2, "body": "torso"}
+        )
+
+        def with_new_gain() -> list:
+            return [
+                (tick, k, b) for tick, k, b in list(ticks)
+                if k == k_after and np.linalg.norm(tick.command.xi - tick.command.xi_adj) > 1e-5
+            ]  # fmt: skip
+
+        assert wait_for(lambda: len(with_new_gain()) >= 50, timeout=15)
+    finally:
+        unsubscribe()
+    assert loop.session is session
+    times = np.array([tick.t for tick, _, _ in ticks])
+    index = np.array([tick.index for tick, _, _ in ticks])
+    assert np.all(np.diff(times) > 0) and np.all(np.diff(index) == 1)  # no reset, none missed
+    for tick, k, b in ticks:  # eq. (41) with the gain in effect at that tick
+        cmd = tick.command
+        np.testing.assert_allclose(
+            cmd.v_cmd, cmd.v_ref + (1.0 + k * b) * (cmd.xi - cmd.xi_adj), atol=1e-12
+        )
+    # tracking changed: with the old gain, the new commands would differ by Δk b (ξ − ξ_adj)
+    for tick, _, b in with_new_gain():
+        cmd = tick.command
+        old = cmd.v_ref + (1.0 + k_before * b) * (cmd.xi - cmd.xi_adj)
+        gap = np.linalg.norm(cmd.v_cmd - old)
+        assert gap == pytest.approx(
+            (k_after - k_before) * b * np.linalg.norm(cmd.xi - cmd.xi_adj), rel=1e-9
+        )
+    assert dashboard.editor.on_field_change("gait", "mode", "plan")

@@ -2,7 +2,7 @@
 
 Every control is labelled ``symbol [unit]`` and takes its range from the schema's bounds, so a
 control and the schema cannot disagree.  ``Controls`` only creates handles and writes values into
-them; what a change means lives in :class:`~dcmviz.dashboard.dashboard.Dashboard`.
+them; what a change means lives in :class:`~dcmviz.dashboard.editor.ConfigEditor`.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ import numpy as np
 import viser
 import viser.uplot as uplot
 
-from dcmviz.dashboard.preview import PreviewData
+from dcmviz.dashboard.preview import PHASE_COLORS, PreviewData
 
 AXES = ("x", "y", "z")
 VRP_STROKE = "#f08c1e"
@@ -96,3 +96,15 @@ class LivePlot:
         i = AXES.index(self.axis)
         self.dcm.data = (t, history["xi"][:, i], history["xi_ref"][:, i], history["xi_adj"][:, i])
         self.error.data = (t, history["dcm_error"])
+
+
+def phase_legend() -> str:
+    """Markdown: the VRP colour of each phase kind, and the DCM's."""
+    items = [
+        f"<span style='color:rgb({r},{g},{b})'>■</span> {kind}"
+        for kind, (r, g, b) in PHASE_COLORS.items()
+    ]
+    return (
+        "<small>VRP by phase: " + " ".join(items) + " · <span style='color:#1e3cc8'>━</span> DCM"
+        "</small>"
+    )

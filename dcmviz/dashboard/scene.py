@@ -117,3 +117,30 @@ def draw_step_markers(
 ) -> None:  # fmt: skip
     """Adjusted (ghost) or realised footsteps from the simulation."""
     _draw_soles(scene, name, soles, length, width, color, opacity=opacity, lift=lift)
+
+
+# what the colours mean (markdown for the panel)
+SCENE_LEGEND = (
+    "<small>On the floor (shifted down by Δz_vrp): "
+    "<span style='color:#00aaff'>●</span> measured DCM ξ · "
+    "<span style='color:#ff00c8'>●</span> adapted DCM ξ_adj · "
+    "<span style='color:#ffc800'>●</span> commanded VRP. Footsteps: "
+    "<span style='color:#ff00c8'>▭</span> adjusted (ghosts) · "
+    "<span style='color:#3c3c3c'>▬</span> realised.</small>"
+)
+
+
+def draw_ground(server: viser.ViserServer) -> None:
+    """Floor grid, lights and the initial camera (front right of the start position)."""
+    scene = server.scene
+    scene.set_up_direction("+z")
+    scene.add_grid(
+        "/grid", width=12.0, height=12.0, cell_size=0.1, section_size=1.0,
+        plane="xy", position=(0.0, 0.0, -0.001), cell_color=(220, 220, 220),
+        section_color=(170, 170, 170), infinite_grid=True, fade_distance=30.0,
+    )  # fmt: skip
+    scene.add_light_hemisphere("/light/sky", intensity=0.8)
+    scene.add_light_directional("/light/sun", intensity=1.5, position=(2.0, -3.0, 5.0))
+    camera = server.initial_camera
+    camera.position = (3.1, -2.4, 1.6)
+    camera.look_at = (1.05, 0.3, 0.5)

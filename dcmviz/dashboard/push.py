@@ -1,0 +1,107 @@
+"""The Push folder and click-to-push: a force on a body of the simulated robot, posted to the loop."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import viser
+
+from dcmviz.config import Config, ConfigError, config_from_dict
+from dcmviz.dashboard.editor import ConfigEditor
+from dcmviz.dashboard.loop import SimLoop
+from dcmviz.dashboard.notify import Notifier
+from dcmviz.robots import get_spec
+
+
+def horizontal_force(direction: Sequence[float], magnitude: float) -> tuple[float, float, float]:
+    """``magnitude`` N along the horizontal part of ``direction`` (+y if it has none)."""
+    d = np.array(direction, dtype=float)
+    d[2] = 0.0
+    n = float(np.linalg.norm(d))
+    d = d / n if n > 1e-9 else np.array([0.0, 1.0, 0.0])
+    return tuple(float(c) for c in magnitude * d)
+
+
+def heading(direction_deg: float) -> tuple[float, float, float]:
+    """Unit vector of a push direction ψ_F in the horizontal plane (0 = +x, 90 = +y)."""
+    angle = math.radians(direction_deg)
+    return (math.cos(angle), math.sin(angle), 0.0)
+
+
+class PushPanel:
+    """Handles ``gui_push_*``; :meth:`on_body_click` is what the robot's meshes call."""
+
+    def __init__(
+        self, gui: viser.GuiApi, loop: SimLoop, editor: ConfigEditor, notifier: Notifier
+    ) -> None:
+        self.loop = loop
+        self.editor = editor
+        self.notifier = notifier
+        with gui.add_folder("Push"):
+            self.gui_push_direction = gui.add_slider(
+                "direction ψ_F [deg]", min=-180.0, max=180.0, step=5.0, initial_value=90.0,
+                hint="0 = forward (+x), 90 = left (+y)",
+            )  # fmt: skip
+            self.gui_push_magnitude = gui.add_slider(
+                "|F| [N]", min=0.0, max=1000.0, step=5.0, initial_value=150.0
+            )
+            self.gui_push_duration = gui.add_slider(
+                "T_push [s]", min=0.05, max=10.0, step=0.05, initial_value=0.2
+            )
+            self.gui_push_ramp = gui.add_slider(
+                "T_ramp [s]", min=0.0, max=10.0, step=0.05, initial_value=0.0
+            )
+            bodies = tuple(get_spec(editor.config.robot.model).bodies)
+            self.gui_push_body = gui.add_dropdown("body", bodies, initial_value=bodies[0])
+            self.handles = {
+                "direction": self.gui_push_direction,
+                "magnitude": self.gui_push_magnitude,
+                "duration": self.gui_push_duration,
+                "ramp": self.gui_push_ramp,
+            }
+            self.gui_push = gui.add_button("Push", color="red", icon=viser.Icon.HAND_STOP)
+            self.gui_push.on_click(lambda event: self.on_push(event.client))
+            gui.add_markdown(
+                "<small>Or click the robot: it is pushed at that body along the view "
+                "direction. Arrows: <span style='color:#e61e1e'>applied force</span>, "
+                "<span style='color:#1eaa3c'>observer estimate F̂</span> (above the head)."
+                "</small>"
+            )
+        editor.on_applied(self.show)
+
+    def show(self, config: Config, preset: str) -> None:
+        """The push bodies of the configured robot."""
+        bodies = tuple(get_spec(config.robot.model).bodies)
+        if tuple(self.gui_push_body.options) != bodies:
+            self.gui_push_body.options = bodies
+
+    # -- callbacks ------------------------------------------------------------------------------
+    def on_push(self, client: viser.ClientHandle | None = None) -> bool:
+        """Push button: direction and magnitude from the panel."""
+        force = horizontal_force(
+            heading(self.gui_push_direction.value), self.gui_push_magnitude.value
+        )
+        return self.push(force, self.gui_push_body.value, client)
+
+    def on_body_click(self, body: str, event: viser.SceneNodePointerEvent) -> bool:
+        """The robot was clicked: push that body along the horizontal view direction."""
+        force = horizontal_force(event.ray_direction, self.gui_push_magnitude.value)
+        return self.push(force, body, event.client)
+
+    def push(
+        self, force: tuple[float, float, float], body: str, client: viser.ClientHandle | None
+    ) -> bool:
+        """Validate a push of ``force`` N on ``body`` like a preset's, then post it."""
+        duration, ramp = float(self.gui_push_duration.value), float(self.gui_push_ramp.value)
+        push = {"start": 0.0, "duration": duration, "force": force, "ramp": ramp, "body": body}
+        data = self.editor.config.to_dict()
+        data["pushes"] = [*data.get("pushes", []), push]
+        try:
+            config_from_dict(data)  # the schema validates a push (and its body) like a preset's
+        except ConfigError as err:
+            self.notifier.notify(client, "Push refused", str(err), error=True)
+            return False
+        self.loop.post("push", {"force": force, "duration": duration, "ramp": ramp, "body": body})
+        return True

@@ -1,0 +1,71 @@
+"""The Recording folder: a rerun recording of the running session, offered for download."""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+import viser
+
+from dcmviz.dashboard.loop import SimLoop
+from dcmviz.dashboard.notify import Notifier
+from dcmviz.dashboard.presets import slug
+from dcmviz.record import Recorder
+
+
+class RecordingPanel:
+    """Handle ``gui_record``: ticking starts a :class:`~dcmviz.record.Recorder` on the simulation
+    thread, unticking stops it and sends the ``.rrd``."""
+
+    def __init__(
+        self,
+        gui: viser.GuiApi,
+        loop: SimLoop,
+        notifier: Notifier,
+        name: Callable[[], str],
+    ) -> None:
+        self.loop = loop
+        self.notifier = notifier
+        self.name = name  # the current preset's name, for the file name
+        self.recorder: Recorder | None = None
+        with gui.add_folder("Recording"):
+            self.gui_record = gui.add_checkbox(
+                "Record (rerun)", initial_value=False,
+                hint="Capture a rerun recording; unticking offers the .rrd for download",
+            )  # fmt: skip
+            self.gui_record.on_update(
+                lambda event: self.on_record(event.target.value, event.client)
+            )
+
+    def on_record(self, recording: bool, client: viser.ClientHandle | None) -> bytes | None:
+        """Start a recording, or stop it and return (and send) the .rrd bytes."""
+        return self.start(client) if recording else self.stop(client)
+
+    def start(self, client: viser.ClientHandle | None) -> None:
+        if self.recorder is not None:
+            return None
+        recorder = Recorder()
+        path = Path(tempfile.mkdtemp(prefix="dcmviz-")) / (slug(self.name()) + ".rrd")
+        try:
+            self.loop.call(lambda session: recorder.start(session, path))
+        except Exception as err:  # noqa: BLE001 - tell the user, keep the session running
+            self.notifier.notify(client, "Recording failed", str(err), error=True)
+            shutil.rmtree(path.parent, ignore_errors=True)
+            self.gui_record.value = False
+            return None
+        self.recorder = recorder
+        return None
+
+    def stop(self, client: viser.ClientHandle | None) -> bytes | None:
+        recorder, self.recorder = self.recorder, None
+        if recorder is None:
+            return None
+        path = Path(self.loop.call(lambda session: recorder.stop()))
+        data = path.read_bytes()
+        shutil.rmtree(path.parent, ignore_errors=True)
+        if client is not None:
+            client.send_file_download(path.name, data, save_immediately=True)
+        self.notifier.notify(client, "Recording ready", f"{path.name}: {recorder.samples} samples")
+        return data

@@ -1,0 +1,52 @@
+"""The Simulation folder: play/pause, reset, speed, walk mode, backend, robot, looping, camera."""
+
+from __future__ import annotations
+
+import viser
+
+from dcmviz.config import Config
+from dcmviz.dashboard.gui import Controls
+from dcmviz.dashboard.loop import SimLoop
+
+
+class SimPanel:
+    """Handles ``gui_play``, ``gui_reset``, ``gui_speed``, ``gui_loop``, ``gui_follow``; the mode,
+    backend and robot dropdowns are config fields (they go through :class:`Controls`)."""
+
+    def __init__(
+        self, gui: viser.GuiApi, loop: SimLoop, controls: Controls, config: Config
+    ) -> None:
+        self.loop = loop
+        with gui.add_folder("Simulation"):
+            self.gui_play = gui.add_button("Pause", icon=viser.Icon.PLAYER_PAUSE)
+            self.gui_play.on_click(lambda event: self.on_play(not self.loop.playing))
+            self.gui_reset = gui.add_button("Reset", icon=viser.Icon.REFRESH)
+            self.gui_reset.on_click(lambda event: self.on_reset())
+            self.gui_speed = gui.add_slider(
+                "speed [×]", min=0.1, max=2.0, step=0.05, initial_value=1.0,
+                hint="Simulated seconds per wall-clock second",
+            )  # fmt: skip
+            self.gui_speed.on_update(lambda event: self.on_speed(event.target.value))
+            controls.add_field_dropdown("gait", "mode", "mode", ("plan", "continuous"), config)
+            controls.add_field_dropdown("sim", "backend", "backend", ("mujoco", "lip"), config)
+            controls.add_field_dropdown("robot", "model", "robot", ("talos", "g1"), config)
+            self.gui_loop = gui.add_checkbox(
+                "Loop the plan", initial_value=True, hint="Restart when the plan has ended"
+            )
+            self.gui_loop.on_update(lambda event: self.loop.post("loop", event.target.value))
+            self.gui_follow = gui.add_checkbox(
+                "Camera follows the robot", initial_value=False,
+                hint="Every open view keeps its angle and moves with the robot",
+            )  # fmt: skip
+
+    def on_play(self, playing: bool) -> None:
+        self.loop.post("play", playing)
+        self.loop.playing = playing  # the button label follows at once
+        self.gui_play.label = "Pause" if playing else "Play"
+        self.gui_play.icon = viser.Icon.PLAYER_PAUSE if playing else viser.Icon.PLAYER_PLAY
+
+    def on_reset(self) -> None:
+        self.loop.post("reset")
+
+    def on_speed(self, speed: float) -> None:
+        self.loop.post("speed", float(speed))

@@ -1,0 +1,58 @@
+"""The status line above the panel: preset, robot, backend, time, speed, falls, walk state, and
+for a few seconds after a config change what it did ("gains changed (walk continues)" or
+"restarted: gait changed")."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import viser
+
+from dcmviz.dashboard.loop import Snapshot
+
+NOTE_SHOW_S = 5.0  # wall seconds a change's note stays in the status line
+
+
+def walk_state(snap: Snapshot) -> str:
+    if snap.fallen:
+        return "fallen"
+    if snap.done:
+        return "standing (plan done)"
+    return "walking" if snap.playing else "paused"
+
+
+class StatusLine:
+    """Writes the status markdown; :meth:`show` is called by the render thread."""
+
+    def __init__(self, handle: viser.GuiMarkdownHandle, name: Callable[[], str]) -> None:
+        self.handle = handle
+        self.name = name  # the current preset's name
+        self._note_seq = 0
+        self._note_since = -float("inf")
+
+    def note(self, snap: Snapshot, now: float) -> str:
+        """The snapshot's note while it is fresh (shown from the first time it is seen)."""
+        if snap.note_seq != self._note_seq:
+            self._note_seq = snap.note_seq
+            self._note_since = now
+        return snap.note if now - self._note_since < NOTE_SHOW_S else ""
+
+    def is_new(self, snap: Snapshot) -> bool:
+        """A config change was noted since the line was last written."""
+        return snap.note_seq != self._note_seq
+
+    def text(self, snap: Snapshot, fps: float, now: float) -> str:
+        speed = (
+            f"real-time ×{snap.real_time_factor:4.2f} · {fps:4.1f} fps · "
+            if snap.playing and not snap.fallen
+            else ""
+        )
+        note = self.note(snap, now)
+        return (
+            f"**{self.name()}** · {snap.robot} · {snap.backend}  \n"
+            f"t = {snap.t:6.2f} s · {speed}falls {snap.falls} · {walk_state(snap)}"
+            + (f"  \nlast change: *{note}*" if note else "")
+        )
+
+    def show(self, snap: Snapshot, fps: float, now: float) -> None:
+        self.handle.content = self.text(snap, fps, now)
