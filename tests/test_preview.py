@@ -314,3 +314,96 @@ def test_nan_time_raises(method: str) -> None:
         getattr(p, method)(np.zeros((2, 2)))
     with pytest.raises(ValueError, match=r"t = nan"):
         p.phase_at(float("nan"))
+
+
+# --- short phases (T ≪ b): no cancellation (issue 9) ------------------------------------------
+
+# phases of 1 ms, the schema limit 0.02 s and ordinary ones, with b = 0.6 s: every order has
+# phases sampled in closed form and phases sampled by the series of β
+SHORT_DURATIONS = np.array([0.7, 1e-3, 1e-3, 0.02, 1e-3, 0.3, 0.02, 1e-3, 1.5, 1e-3])
+SHORT_B = 0.6
+
+
+def short_plan(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-1.0, 1.0, (SHORT_DURATIONS.size + 1, 3)), SHORT_DURATIONS
+
+
+@pytest.mark.parametrize("order", ORDERS)
+def test_short_phases_match_eq_10_in_exact_arithmetic(order: int) -> None:
+    """ξ_ref(t) and the weights of eqs. (22), (23) against eq. (10) with α, β, γ in exact
+    arithmetic and the dense eqs. (20), (21), at phases of 1 ms and 20 ms with b = 0.6 s."""
+    waypoints, durations = short_plan(80 + order)
+    p = Preview(waypoints, durations, SHORT_B, order)
+    if order:
+        assert p._schedule.closed_form.any() and not p._schedule.closed_form.all()
+    dense = dense_matrices(durations, SHORT_B, order)
+    np.testing.assert_allclose(
+        p.xi_ref_T.ravel(), dense["A_xi_ref_T"] @ waypoints.ravel(), atol=1e-14
+    )
+    fractions = np.array([0.0, 0.13, 0.5, 0.77, 0.999])
+    t = (p.phase_start_times[:, None] + durations[:, None] * fractions).ravel()
+    phases, t_local = p.phase_at(t)
+    expected = np.empty((t.size, 3))
+    for k, (phi, t_phi) in enumerate(zip(phases, t_local, strict=True)):
+        a, be, g = phase_coefficients(durations[phi], SHORT_B, order, t_phi)
+        rows = slice(3 * phi, 3 * phi + 3)
+        A = (
+            a * dense["A_v_ref_0"][rows]
+            + be * dense["A_v_ref_T"][rows]
+            + g * dense["A_xi_ref_T"][rows]
+        )
+        expected[k] = A @ waypoints.ravel()
+        np.testing.assert_allclose(np.kron(p.dcm_weights(float(t[k])), I3), A, atol=1e-14)
+        np.testing.assert_allclose(p.dcm(float(t[k])), expected[k], atol=1e-14)
+    np.testing.assert_allclose(p.dcm(t), expected, atol=1e-14)
+    np.testing.assert_allclose(p.dcm_weights(t) @ waypoints, expected, atol=1e-14)
+
+
+@pytest.mark.parametrize("order", ORDERS)
+def test_short_phases_dcm_is_continuous_at_boundaries(order: int) -> None:
+    """At every boundary of 1-ms and 20-ms phases, ξ_ref from the left (the last float before
+    the boundary) equals ξ_ref from the right to ~1e-15 m; both equal ξ_ref_T = ξ_ref_0 (18)."""
+    waypoints, durations = short_plan(90 + order)
+    p = Preview(waypoints, durations, SHORT_B, order)
+    boundaries = p.phase_start_times[1:]
+    left = p.dcm(np.nextafter(boundaries, -np.inf))
+    right = p.dcm(boundaries)
+    np.testing.assert_allclose(left, right, atol=1e-14)
+    np.testing.assert_allclose(left, p.xi_ref_T[:-1], atol=1e-14)
+    np.testing.assert_allclose(right, p.xi_ref_0[1:], atol=1e-14)
+    for t0 in boundaries:
+        np.testing.assert_allclose(
+            p.dcm(float(np.nextafter(t0, -np.inf))), p.dcm(float(t0)), atol=1e-14
+        )
+
+
+def central_difference(fun, t: np.ndarray, h: float) -> np.ndarray:
+    """Fourth-order central difference (error h⁴ f⁽⁵⁾ / 30)."""
+    return (-fun(t + 2 * h) + 8 * fun(t + h) - 8 * fun(t - h) + fun(t - 2 * h)) / (12 * h)
+
+
+@pytest.mark.parametrize("order", ORDERS)
+def test_short_phases_satisfy_eq_6_by_finite_differences(order: int) -> None:
+    """ξ̇ = (ξ − v)/b (6) inside phases of 1 ms and 20 ms (b = 0.6 s), and dcm_velocity agrees;
+    h = 1 µs: truncation ~1e-11 m/s, rounding (ξ to ~5e-15 m) ~1e-8 m/s."""
+    waypoints, durations = short_plan(100 + order)
+    p = Preview(waypoints, durations, SHORT_B, order)
+    t = inside_samples(p, per_phase=7, margin=0.1)
+    derivative = central_difference(p.dcm, t, 1e-6)
+    np.testing.assert_allclose(derivative, (p.dcm(t) - p.vrp(t)) / SHORT_B, atol=2e-8)
+    np.testing.assert_allclose(p.dcm_velocity(t), derivative, atol=2e-8)
+    for x in t[::5]:
+        np.testing.assert_allclose(
+            p.dcm_velocity(float(x)), p.dcm_velocity(np.array([x]))[0], atol=1e-13
+        )
+
+
+def test_with_waypoints_reuses_the_short_phase_series() -> None:
+    waypoints, durations = short_plan(7)
+    p = Preview(waypoints, durations, SHORT_B, 5)
+    new = waypoints[::-1].copy()
+    t = np.linspace(0.0, p.duration, 301)
+    np.testing.assert_allclose(
+        p.with_waypoints(new).dcm(t), Preview(new, durations, SHORT_B, 5).dcm(t), atol=0
+    )

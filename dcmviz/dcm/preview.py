@@ -7,6 +7,14 @@ O(n) backward iteration of eqs. (15), (17), (18) instead of the O(n³) inverses 
 
 Phases are indexed from 0 here (φ = 1 … n_φ in the paper); phase φ runs from waypoint φ to
 waypoint φ + 1 (eqs. 11, 12).
+
+Sampling eq. (10): ξ_ref(t) = v_ref_0 + β(t) Δv + γ(t) (ξ_ref_T − v_ref_0), Δv = v_ref_T − v_ref_0
+(α + β + γ = 1). Where the closed form is well conditioned (``closed_form_error_bound`` ≤ 64,
+e.g. T/b ≥ 1.94 for order 5) β = σ(t) − γ σ_T, so ξ_ref = v_ref_0 + σ(t) Δv + γ(t) r with
+r = ξ_ref_T − v_ref_0 − σ_T Δv: a degree-n polynomial and one exponential per sample. In shorter
+phases σ's terms cancel (module docstring of ``interpolation``) and β is the power series of
+``beta_series_coefficients`` in s = 2t/T − 1 (about 20 terms at most), r = ξ_ref_T − v_ref_0.
+α_0, β_0 of eq. (15) come from the integral form (``alpha_beta_0``) for every phase.
 """
 
 from __future__ import annotations
@@ -19,10 +27,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from dcmviz.dcm.interpolation import (
+    CLOSED_FORM_ERROR_BOUND,
+    alpha_beta_0,
+    beta_series_coefficients,
     check_b,
     check_durations,
     check_order,
     check_points,
+    closed_form_error_bound,
     f_tau_coefficients,
     sigma_tau_coefficients,
 )
@@ -56,29 +68,78 @@ class PhaseSchedule:
         self.duration = float(self.boundaries[-1])
 
         # Table I / eq. (8) in normalised time τ = t / T: f(τ) is the same for every phase,
-        # σ(τ) depends on b / T_φ. Time derivatives carry a factor 1 / T_φ.
+        # σ(τ) depends on b / T_φ. Time derivatives carry a factor 1 / T_φ. (For T ≪ b these
+        # are the paper's σ, huge; sampling does not use them there.)
         self.f_coefficients = _read_only(f_tau_coefficients(self.order))
         self.f_dot_coefficients = _read_only(f_tau_coefficients(self.order, 1))
-        s = sigma_tau_coefficients(T, self.b, self.order)
+        with np.errstate(over="ignore", invalid="ignore"):
+            s = sigma_tau_coefficients(T, self.b, self.order)
+            k = np.arange(1, s.shape[1])
+            sigma_dot = s[:, 1:] * k if s.shape[1] > 1 else np.zeros((self.n_phases, 1))
+            sigma_T = s.sum(axis=1)
         self.sigma_coefficients = _read_only(s)
-        k = np.arange(1, s.shape[1])
-        self.sigma_dot_coefficients = _read_only(
-            s[:, 1:] * k if s.shape[1] > 1 else np.zeros((self.n_phases, 1))
-        )
+        self.sigma_dot_coefficients = _read_only(sigma_dot)
         self.sigma_0 = _read_only(s[:, 0].copy())
-        self.sigma_T = _read_only(s.sum(axis=1))
-        # eq. (15)
+        self.sigma_T = _read_only(sigma_T)
+        # eq. (15), α_0 and β_0 from the integral form (accurate for every T / b)
         self.gamma_0 = _read_only(np.exp(-T / self.b))
-        self.alpha_0 = _read_only(1.0 - self.sigma_0 - self.gamma_0 * (1.0 - self.sigma_T))
-        self.beta_0 = _read_only(self.sigma_0 - self.gamma_0 * self.sigma_T)
+        # Sampling (module docstring): p(t) = σ(t) and p_T = σ_T where the closed form is
+        # well conditioned; p(t) = β(t) from a series in s = 2t/T − 1 and p_T = 0 elsewhere.
+        closed = closed_form_error_bound(T, self.b, self.order) <= CLOSED_FORM_ERROR_BOUND
+        series = np.flatnonzero(~closed)
+        alpha_0, beta_0 = alpha_beta_0(T, self.b, self.order)  # integral form, every T / b
+        self.alpha_0 = _read_only(alpha_0)
+        self.beta_0 = _read_only(beta_0)
+        self.closed_form = _read_only(closed)
+        self._p_coefficients = np.where(closed[:, None], s, 0.0)
+        self._p_dot_coefficients = np.where(closed[:, None], sigma_dot, 0.0)
+        self._p_T = _read_only(np.where(closed, sigma_T, 0.0))
+        self._any_series = bool(series.size)
+        self._series_row = np.full(self.n_phases, -1)
+        self._series_row[series] = np.arange(series.size)
+        self._beta_series = (
+            beta_series_coefficients(T[series], self.b, self.order)
+            if series.size
+            else np.zeros((0, 1))
+        )
 
-        # Plain-float copies for the per-tick scalar path.
+        # Plain-float copies for the per-tick scalar path: per phase, p's coefficients
+        # (descending, for Horner), whether p is the series in s, σ̇'s coefficients and p_T.
         self._starts = self.phase_start_times.tolist()
         self._T = T.tolist()
-        self._f = tuple(self.f_coefficients.tolist())[::-1]  # descending, for Horner
-        self._f_dot = tuple(self.f_dot_coefficients.tolist())[::-1]
-        self._sigma = [tuple(row[::-1]) for row in s.tolist()]
-        self._sigma_dot = [tuple(row[::-1]) for row in self.sigma_dot_coefficients.tolist()]
+        self._f = self.f_coefficients[::-1].tolist()
+        self._f_dot = self.f_dot_coefficients[::-1].tolist()
+        self._p = self._p_coefficients[:, ::-1].tolist()
+        for phi, row in zip(series.tolist(), self._beta_series[:, ::-1].tolist(), strict=True):
+            self._p[phi] = row
+        self._centred = (~closed).tolist()
+        self._p_dot = self._p_dot_coefficients[:, ::-1].tolist()
+        self._p_T_list = self._p_T.tolist()
+
+    def sample_p(self, phi: NDArray, t_phi: NDArray, T: NDArray) -> NDArray[np.float64]:
+        """p(t) of the module docstring (σ(t) or β(t)) at local times t_φ of phases φ."""
+        p = _horner_rows(self._p_coefficients[phi], t_phi / T)
+        if self._any_series:
+            row = self._series_row[phi]
+            series = row >= 0
+            if series.any():
+                t_s, T_s = t_phi[series], T[series]
+                p[series] = _horner_rows(self._beta_series[row[series]], (2.0 * t_s - T_s) / T_s)
+        return p
+
+    def sample_p_dot(self, phi: NDArray, t_phi: NDArray, T: NDArray) -> NDArray[np.float64]:
+        """ṗ(t): σ̇(t) where closed form, β̇ = (β − f) / b (eq. 6) in series phases."""
+        tau = t_phi / T
+        p_dot = _horner_rows(self._p_dot_coefficients[phi], tau) / T
+        if self._any_series:
+            row = self._series_row[phi]
+            series = row >= 0
+            if series.any():
+                t_s, T_s = t_phi[series], T[series]
+                beta = _horner_rows(self._beta_series[row[series]], (2.0 * t_s - T_s) / T_s)
+                f = np.polynomial.polynomial.polyval(tau[series], self.f_coefficients)
+                p_dot[series] = (beta - f) / self.b
+        return p_dot
 
     # --- phase lookup -----------------------------------------------------------------------
 
@@ -197,7 +258,7 @@ class PhaseSchedule:
         return _read_only(xi_ref_0), _read_only(xi_ref_T)
 
 
-def _horner(coefficients_descending: tuple[float, ...], x: float) -> float:
+def _horner(coefficients_descending: list[float], x: float) -> float:
     result = 0.0
     for c in coefficients_descending:
         result = result * x + c
@@ -239,8 +300,9 @@ class Preview:
         v_ref_0 = waypoints[:-1]  # eq. (13)
         v_ref_T = waypoints[1:]  # eq. (14)
         dv = v_ref_T - v_ref_0
-        # eq. (10) regrouped: ξ(t) = v_ref_0 + σ(t) Δv + γ(t) r, r = ξ_ref_T − v_ref_0 − σ_T Δv
-        r = xi_ref_T - v_ref_0 - schedule.sigma_T[:, None] * dv
+        # eq. (10) regrouped: ξ(t) = v_ref_0 + p(t) Δv + γ(t) r, r = ξ_ref_T − v_ref_0 − p_T Δv
+        # with p = σ, p_T = σ_T (closed form) or p = β, p_T = 0 (module docstring)
+        r = xi_ref_T - v_ref_0 - schedule._p_T[:, None] * dv
         self.__dict__.update(
             _schedule=schedule,
             _waypoints=waypoints,
@@ -379,7 +441,8 @@ class Preview:
         if isinstance(t, float):
             phi, t_phi = s.locate(t)
             T = s._T[phi]
-            sig = _horner(s._sigma[phi], t_phi / T)
+            x = (2.0 * t_phi - T) / T if s._centred[phi] else t_phi / T
+            sig = _horner(s._p[phi], x)
             g = math.exp((t_phi - T) / s.b)
             v0, dv, r = self._v0_list[phi], self._dv_list[phi], self._r_list[phi]
             return np.array(
@@ -391,7 +454,7 @@ class Preview:
             )
         phi, t_phi = s.locate_array(t)
         T = s.durations[phi]
-        sig = _horner_rows(s.sigma_coefficients[phi], t_phi / T)
+        sig = s.sample_p(phi, t_phi, T)
         g = np.exp((t_phi - T) / s.b)
         return self._v_ref_0[phi] + sig[:, None] * self._dv[phi] + g[:, None] * self._r[phi]
 
@@ -402,7 +465,11 @@ class Preview:
         if isinstance(t, float):
             phi, t_phi = s.locate(t)
             T = s._T[phi]
-            sig_dot = _horner(s._sigma_dot[phi], t_phi / T) / T
+            if s._centred[phi]:  # β̇ = (β − f) / b, eq. (6)
+                sig = _horner(s._p[phi], (2.0 * t_phi - T) / T)
+                sig_dot = (sig - _horner(s._f, t_phi / T)) / s.b
+            else:
+                sig_dot = _horner(s._p_dot[phi], t_phi / T) / T
             g = math.exp((t_phi - T) / s.b) / s.b
             dv, r = self._dv_list[phi], self._r_list[phi]
             return np.array(
@@ -410,7 +477,7 @@ class Preview:
             )
         phi, t_phi = s.locate_array(t)
         T = s.durations[phi]
-        sig_dot = _horner_rows(s.sigma_dot_coefficients[phi], t_phi / T) / T
+        sig_dot = s.sample_p_dot(phi, t_phi, T)
         g = np.exp((t_phi - T) / s.b) / s.b
         return sig_dot[:, None] * self._dv[phi] + g[:, None] * self._r[phi]
 
@@ -426,22 +493,22 @@ class Preview:
         if isinstance(t, float):
             phi, t_phi = s.locate(t)
             T = s._T[phi]
-            sig = _horner(s._sigma[phi], t_phi / T)
+            x = (2.0 * t_phi - T) / T if s._centred[phi] else t_phi / T
+            sig = _horner(s._p[phi], x)
             g = math.exp((t_phi - T) / s.b)
-            sigma_T = float(s.sigma_T[phi])
+            beta = sig - g * s._p_T_list[phi]  # β_φ(t), eq. (10)
             w = g * s.xi_ref_T_row(phi)
-            w[phi] += 1.0 - sig - g * (1.0 - sigma_T)  # α_φ(t), eq. (10)
-            w[phi + 1] += sig - g * sigma_T  # β_φ(t), eq. (10)
+            w[phi] += 1.0 - g - beta  # α_φ(t) = 1 − γ − β, eq. (10)
+            w[phi + 1] += beta
             return w
         phi, t_phi = s.locate_array(t)
         T = s.durations[phi]
-        sig = _horner_rows(s.sigma_coefficients[phi], t_phi / T)
         g = np.exp((t_phi - T) / s.b)
-        sigma_T = s.sigma_T[phi]
+        beta = s.sample_p(phi, t_phi, T) - g * s._p_T[phi]
         w = g[:, None] * s.W_xi_ref_T[phi]
         rows = np.arange(t.size)
-        w[rows, phi] += 1.0 - sig - g * (1.0 - sigma_T)
-        w[rows, phi + 1] += sig - g * sigma_T
+        w[rows, phi] += 1.0 - g - beta
+        w[rows, phi + 1] += beta
         return w
 
     def with_waypoints(self, waypoints: ArrayLike) -> Preview:
