@@ -61,6 +61,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     tune_settings = TuneSettings(args.objective, args.trials, args.seed, args.probe_impulse)
     try:
         result = tune_preset(config, tune_settings, settings, out, progress=not args.no_progress)
+    except ConnectionError as exc:
+        print(f"{PROG}: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"\n{PROG}: interrupted", file=sys.stderr)
         return 130

@@ -169,7 +169,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             result = envelope(config, settings, execution)
             paths = write_envelope(result, out)
             print(table(result))
-    except (BadInput, ConfigError) as exc:
+    except (BadInput, ConfigError, ConnectionError) as exc:
         return _error(exc)
     except KeyboardInterrupt:
         print(

@@ -208,7 +208,14 @@ def ray_init(num_cpus: int | None = None, address: str | None = None) -> bool:
     else:
         import dcmviz
 
-        ray.init(address=address, runtime_env={"py_modules": [dcmviz]}, **kwargs)
+        try:
+            ray.init(address=address, runtime_env={"py_modules": [dcmviz]}, **kwargs)
+        except ConnectionError as err:
+            raise ConnectionError(
+                f"--address {address}: cannot connect to a Ray cluster there ({err}); a cluster "
+                "with token authentication needs RAY_AUTH_MODE=token and its token in "
+                "RAY_AUTH_TOKEN (or ~/.ray/auth_token)"
+            ) from None
     return True
 
 
