@@ -4,8 +4,9 @@
                                             [--screenshot docs/dashboard.png]
 
 1. Preview latency: server-side time from a control change (the callback's entry point,
-   ``Dashboard.on_field_change``) to the new preview of a 20-step plan drawn into the scene and
-   the Fig. 1a plots (target < 50 ms), repeated while the simulation runs.
+   ``ConfigEditor.on_field_change``) to the plan the walker walks with it (built by the session
+   from the measured feet) drawn into the scene and the Fig. 1a plots, for a 20-step plan
+   (target < 50 ms), repeated while the simulation runs.
 2. Real-time factor of the simulation (simulated / wall seconds) with the browser connected
    (target ≥ 1), and the frame rate of the scene updates (target ≥ 30 fps).
 3. Optionally a screenshot of the dashboard with the robot walking and the preview drawn.
@@ -44,7 +45,7 @@ def preview_latency(dashboard: Dashboard, n: int = 30) -> np.ndarray:
     for i in range(n):
         value = 0.20 if i % 2 else 0.21
         t0 = time.perf_counter()
-        assert dashboard.on_field_change("gait", "step_length", value)
+        assert dashboard.editor.on_field_change("gait", "step_length", value)
         assert dashboard.preview.wait(dashboard.version)
         out.append(time.perf_counter() - t0)
         time.sleep(0.05)  # the simulation keeps running in between
@@ -112,8 +113,8 @@ def main() -> None:
         worker = np.array(list(dashboard.preview.latency_s.values())[-len(lat) :]) * 1e3
         cpu = np.array(list(dashboard.preview.cpu_s.values())[-len(lat) :]) * 1e3
         print(
-            f"  of which in the preview worker (submit → drawn): median {np.median(worker):.1f} ms"
-            f" wall, {np.median(cpu):.1f} ms CPU (sampling + scene + plots)"
+            f"  of which from the editor's submit to drawn: median {np.median(worker):.1f} ms"
+            f" wall, {np.median(cpu):.1f} ms CPU in the plan view (sampling + scene + plots)"
         )
 
         rtf, fps, cpu = measure_rtf(dashboard, args.seconds)
@@ -121,13 +122,16 @@ def main() -> None:
         print(
             f"simulation ({snap.backend}, {snap.robot}) with one browser connected: "
             f"real-time factor {rtf:.2f} at speed 1 (paced; target ≥ 1), scene {fps:.1f} fps "
-            f"(target ≥ 30), server process CPU {100 * cpu:.0f} %, "
+            f"(target ≥ 30; render thread's own fps {dashboard.view.fps:.1f}), "
+            f"server process CPU {100 * cpu:.0f} %, "
             f"control tick {1e3 * snap.step_time_s:.2f} ms"
         )
-        dashboard.on_speed(4.0)  # unpaced headroom: how fast can it go with the browser attached
+        dashboard.sim_panel.on_speed(
+            4.0
+        )  # unpaced headroom: how fast can it go with the browser attached
         time.sleep(0.5)
         rtf_max, _, _ = measure_rtf(dashboard, min(args.seconds, 5.0))
-        dashboard.on_speed(1.0)
+        dashboard.sim_panel.on_speed(1.0)
         print(f"  at speed ×4 (headroom): real-time factor {rtf_max:.2f}")
         print(f"load average after: {os.getloadavg()[0]:.2f}")
 
@@ -141,7 +145,7 @@ def main() -> None:
 def take_screenshot(page, dashboard: Dashboard, path: Path) -> None:
     """The default walk mid-way under a steady lateral push (arrows, a ghost step), paused so
     the picture is exactly what the server drew; notifications closed."""
-    dashboard.on_field_change("gait", "n_steps", 10)
+    dashboard.editor.on_field_change("gait", "n_steps", 10)
     dashboard.preview.wait(dashboard.version)
     for button in page.locator("button.mantine-Notification-closeButton").all():
         button.click()
@@ -158,11 +162,11 @@ def take_screenshot(page, dashboard: Dashboard, path: Path) -> None:
         time.sleep(0.01)
     while loop.session.t < 3.1 and time.time() < deadline:
         time.sleep(0.005)
-    dashboard.on_play(False)
+    dashboard.sim_panel.on_play(False)
     time.sleep(2.5)  # let the browser catch up with the last frames
     path.parent.mkdir(parents=True, exist_ok=True)
     page.screenshot(path=str(path))
-    dashboard.on_play(True)
+    dashboard.sim_panel.on_play(True)
     print(f"screenshot: {path} (t = {loop.session.t:.2f} s, falls {loop.falls})")
 
 

@@ -67,23 +67,22 @@ class RobotView:
 
     def update(self, pose: RobotPose) -> int:
         """Pose the robot; returns how many meshes moved relative to the base."""
-        moved = 0
+        changed = np.zeros(len(self.meshes), bool)
+        if pose.joints != self._joints:  # the kinematics outside the scene's lock
+            self._joints = dict(pose.joints)
+            poses = self.visual.in_base(pose.joints)
+            changed = (np.abs(poses.position - self._position).max(axis=1) > MOVE_TOLERANCE) | (
+                np.abs(poses.wxyz - self._wxyz).max(axis=1) > MOVE_TOLERANCE
+            )
+            self._position[changed] = poses.position[changed]
+            self._wxyz[changed] = poses.wxyz[changed]
         with self.server.atomic():
             self.root.position = np.asarray(pose.base_position, float)
             self.root.wxyz = np.asarray(pose.base_wxyz, float)
-            if pose.joints != self._joints:
-                self._joints = dict(pose.joints)
-                poses = self.visual.in_base(pose.joints)
-                changed = (np.abs(poses.position - self._position).max(axis=1) > MOVE_TOLERANCE) | (
-                    np.abs(poses.wxyz - self._wxyz).max(axis=1) > MOVE_TOLERANCE
-                )
-                for i in np.flatnonzero(changed):
-                    self.meshes[i].position = poses.position[i]
-                    self.meshes[i].wxyz = poses.wxyz[i]
-                self._position[changed] = poses.position[changed]
-                self._wxyz[changed] = poses.wxyz[changed]
-                moved = int(changed.sum())
-        return moved
+            for i in np.flatnonzero(changed):
+                self.meshes[i].position = self._position[i]
+                self.meshes[i].wxyz = self._wxyz[i]
+        return int(changed.sum())
 
     def set_visible(self, visible: bool) -> None:
         if self.root.visible != visible:
