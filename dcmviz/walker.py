@@ -49,15 +49,15 @@ from dcmviz.robots import get_spec
 from dcmviz.state import SIDES, FootTarget, MeasuredState, WalkerCommand
 
 HORIZON_STEPS = 4  # continuous mode: at least this many footsteps previewed ahead
-HORIZON_TIME_CONSTANTS = 12.0  # ... and at least 12 b of walking before the terminal constraint
+HORIZON_TIME_CONSTANTS = 15.0  # ... and at least 15 b of walking before the terminal constraint
 
 
 def horizon_count(gait, b: float) -> int:
     """Footsteps in the continuous mode's receding horizon.
 
     The terminal constraint (eq. 17) at the horizon's end, and the footstep each replanning
-    adds there, reach back to the present through e^(−T_h/b) (eq. 15); with T_h ≥ 12 b that is
-    below 1e-5, so a replanning moves ξ_ref by less than 1e-5 of a step instead of millimetres
+    adds there, reach back to the present through e^(−T_h/b) (eq. 15); with T_h ≥ 15 b that is
+    below 1e-6, so a replanning moves ξ_ref by less than 1e-6 of a step instead of millimetres
     to centimetres with a fixed count of 4 steps (fast steps, large b).
     """
     per_step = gait.t_ss + gait.t_ds

@@ -1,0 +1,122 @@
+"""Property test: the references the controller tracks never jump (issue 9, the paper's footnote 2).
+
+Random walking settings inside the schema and the robot's envelope, random pushes, on the point
+mass (orders 3 and 5 keep v_ref C¹, order 1 C⁰, order 0's VRP steps by design).  For every
+tick i the increment Δ_i = |s_i − s_{i−1}| of a continuous signal s with
+|s̈| ≤ A is at most the increment two ticks earlier or later plus 2 dt² A (the rate cannot change
+faster than that); a jump is an increment far above its neighbours'.  A = 20 m/s² bounds the
+second derivative of ξ_adj and of the commanded VRP on these walks (ξ̈ = (ξ̇ − v̇)/b with
+|ξ̇|, |v̇| ≲ 2 m/s and b ≥ 0.27 s gives ≲ 15 m/s²); the jumps this test was written against were
+0.4–5.5 cm in one 5 ms tick, against a slack of 1 mm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from dcmviz.config import Config
+from dcmviz.session import Session
+
+ACCEL_BOUND = 20.0  # m/s², |s̈| of ξ_adj and v_cmd (see the module docstring)
+
+
+def jumps(signal: np.ndarray, dt: float, kink: float = 1.0) -> np.ndarray:
+    """Per tick: how far the increment exceeds what the neighbouring increments allow (m).
+
+    ``kink`` > 1 admits a C⁰ signal whose rate may change at an instant (order 1's VRP: the
+    increment may grow by that factor, but not by the 10–100 of a jump).
+    """
+    d = np.linalg.norm(np.diff(signal, axis=0), axis=1)
+    neighbours = np.maximum(np.r_[d[2:], 0.0, 0.0], np.r_[0.0, 0.0, d[:-2]])
+    return d - (kink * neighbours + 2.0 * dt * dt * ACCEL_BOUND)
+
+
+walks = st.fixed_dictionaries(
+    {
+        "order": st.sampled_from([0, 1, 3, 5]),
+        "mode": st.sampled_from(["plan", "continuous"]),
+        "b": st.floats(0.275, 0.30),
+        "step_length": st.floats(-0.15, 0.35),
+        "step_width": st.floats(0.16, 0.30),
+        "t_ss": st.floats(0.5, 1.2),
+        "t_ds": st.floats(0.1, 0.4),
+        "t_start": st.floats(0.6, 2.0),
+        "t_stop": st.floats(0.5, 2.0),
+        "k_xi": st.floats(1.0, 6.0),
+        "step_adjustment": st.booleans(),
+        "observer": st.booleans(),
+        "pushes": st.lists(
+            st.tuples(
+                st.floats(1.0, 6.0),  # start, s
+                st.floats(0.1, 0.3),  # duration, s
+                st.floats(20.0, 90.0),  # |F|, N
+                st.floats(-np.pi, np.pi),  # direction
+            ),
+            max_size=2,
+        ),
+    }
+)
+
+
+@settings(
+    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow], derandomize=True
+)
+@given(walks)
+def test_adapted_reference_and_commanded_vrp_never_jump(w: dict) -> None:
+    config = Config().replace(
+        sim={"backend": "lip"},
+        dcm={"order": w["order"], "b": w["b"]},
+        gait={
+            "mode": w["mode"], "n_steps": 6, "step_length": w["step_length"],
+            "step_width": w["step_width"], "t_ss": w["t_ss"], "t_ds": w["t_ds"],
+            "t_start": w["t_start"], "t_stop": w["t_stop"],
+        },
+        control={
+            "k_xi": w["k_xi"], "step_adjustment": w["step_adjustment"],
+            "observer": w["observer"], "max_step_adjustment": 0.3,
+        },
+    )  # fmt: skip
+    s = Session(config, backend="lip")
+    for start, duration, force, angle in w["pushes"]:
+        s.push((force * np.cos(angle), force * np.sin(angle), 0.0), duration, start=start)
+    ticks = []
+    s.subscribe(ticks.append)
+    s.run(8.0)
+    n = len(ticks) if not s.fell else max(0, len(ticks) - 1)
+    ticks = ticks[:n]
+    dt = s.backend.control_dt
+    xi_adj = np.array([k.command.xi_adj for k in ticks])
+    worst = jumps(xi_adj, dt)
+    assert worst.max() <= 0.0, f"ξ_adj jumps {worst.max() * 100:.2f} cm beyond its rate"
+    if w["order"] >= 1:  # order 0's VRP steps at phase boundaries by design
+        v_cmd = np.array([k.command.v_cmd for k in ticks])
+        worst = jumps(v_cmd, dt, kink=1.0 if w["order"] >= 3 else 2.0)
+        assert worst.max() <= 0.0, f"v_cmd jumps {worst.max() * 100:.2f} cm beyond its rate"
+    # at a touchdown the nominal ξ_ref changes by the committed footstep only (continuous mode
+    # replans there: the new horizon must agree with the old plan with that footstep moved)
+    for before, after in zip(ticks, ticks[1:], strict=False):
+        if after.plan_version == before.plan_version or not after.realised_steps:
+            continue
+        landed = after.realised_steps[-1]
+        k = before.next_step_index
+        committed = before.plan.with_step(k, landed.position)
+        t = after.t
+        expected = committed.preview.dcm(t - committed.t0)
+        got = after.plan.preview.dcm(t - after.plan.t0)
+        assert np.linalg.norm(got - expected) < 1e-5
+
+
+@pytest.mark.parametrize("order", [0, 1, 3, 5])
+def test_undisturbed_walks_end_standing_on_the_reference(order: int) -> None:
+    """Order 0 used to end 6.6–16.6 cm off its reference (the VRP stayed on the old stance foot
+    after the plan), and its closing step moved 10.7 cm on an undisturbed walk."""
+    s = Session(Config().replace(sim={"backend": "lip"}, dcm={"order": order}), backend="lip")
+    s.run(s.plan.duration + 2.0)
+    assert not s.fell
+    c = s.tick().command
+    assert np.linalg.norm(c.xi - c.xi_ref) < 1e-3
+    for record in s.realised_steps():
+        assert np.linalg.norm(record.adjustment[:2]) < 5e-3
