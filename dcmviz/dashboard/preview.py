@@ -12,7 +12,7 @@ import numpy as np
 
 from dcmviz.gait import GaitPlan
 from dcmviz.robots import RobotSpec
-from dcmviz.sim.lip import sole_corners
+from dcmviz.robots.geometry import sole_corners
 
 SAMPLES_PER_PHASE = 24
 

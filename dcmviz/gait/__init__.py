@@ -1,6 +1,7 @@
 """Gait planning: footsteps (generation, receding horizon), the plan (VRP waypoints, durations,
 contact schedule, closed-form preview) and swing-foot paths."""
 
+from dcmviz.gait.feasibility import PlanWarning, check_plan
 from dcmviz.gait.footsteps import generated_step, horizon_steps, initial_feet, plan_footsteps
 from dcmviz.gait.plan import (
     START_SPLIT,
@@ -26,7 +27,9 @@ __all__ = [
     "GaitPlan",
     "SwingTrajectory",
     "Timing",
+    "PlanWarning",
     "build_plan",
+    "check_plan",
     "clamp_to_reach",
     "generated_step",
     "horizon_steps",

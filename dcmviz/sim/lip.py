@@ -19,68 +19,10 @@ import numpy as np
 
 from dcmviz import GRAVITY
 from dcmviz.robots import RobotSpec, get_spec
+from dcmviz.robots.geometry import convex_hull, project_to_polygon, sole_corners
 from dcmviz.state import SIDES, MeasuredState, WalkerCommand
 
 E_Z = np.array([0.0, 0.0, 1.0])
-
-
-def sole_corners(position: np.ndarray, yaw: float, length: float, width: float) -> np.ndarray:
-    """(4, 2) corners of a sole rectangle, counter-clockwise."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    hl, hw = 0.5 * length, 0.5 * width
-    local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
-    rot = np.array([[c, -s], [s, c]])
-    return position[:2] + local @ rot.T
-
-
-def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Counter-clockwise convex hull (Andrew's monotone chain) of (N, 2) points."""
-    pts = sorted(map(tuple, np.round(points, 12)))
-    if len(pts) <= 2:
-        return np.array(pts)
-
-    def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower, upper = [], []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def project_to_polygon(point: np.ndarray, polygon: np.ndarray) -> tuple[np.ndarray, float]:
-    """Closest point of a convex CCW polygon to ``point`` (2,), and the distance (0 inside).
-
-    Plain floats: the polygons have at most 8 vertices and this runs twice per control tick.
-    """
-    px, py = float(point[0]), float(point[1])
-    verts = polygon.tolist()
-    n = len(verts)
-    for i in range(n):  # inside test first: the common case costs one pass of cross products
-        ax, ay = verts[i]
-        bx, by = verts[(i + 1) % n]
-        if (bx - ax) * (py - ay) - (by - ay) * (px - ax) < 0.0:
-            break
-    else:
-        return np.array([px, py]), 0.0
-    best = (math.inf, px, py)
-    for i in range(n):
-        ax, ay = verts[i]
-        bx, by = verts[(i + 1) % n]
-        ex, ey = bx - ax, by - ay
-        s = ((px - ax) * ex + (py - ay) * ey) / (ex * ex + ey * ey)
-        s = 0.0 if s < 0.0 else (1.0 if s > 1.0 else s)
-        cx, cy = ax + s * ex, ay + s * ey
-        d2 = (cx - px) ** 2 + (cy - py) ** 2
-        if d2 < best[0]:
-            best = (d2, cx, cy)
-    return np.array([best[1], best[2]]), math.sqrt(best[0])
 
 
 class LipBackend:
@@ -187,9 +129,7 @@ class LipBackend:
         # exact solution of ẍ = (x − c(τ))/b² for c(τ) = c0 + ċ τ over the tick (first-order hold
         # of the commanded VRP at the reference's rate, so an undisturbed walk is exactly nominal)
         rate = command.v_cmd_rate if command.v_cmd_rate is not None else np.zeros(3)
-        rate = (
-            np.array([rate[0], rate[1], 0.0]) if self.support_distance == 0.0 else np.zeros(3)
-        )
+        rate = np.array([rate[0], rate[1], 0.0]) if self.support_distance == 0.0 else np.zeros(3)
         c0 = v_c - (b * b / m) * self.external_force()
         dt = self.control_dt
         ch, sh = math.cosh(dt / b), math.sinh(dt / b)
