@@ -72,7 +72,7 @@ class PhaseSchedule:
         # are the paper's σ, huge; sampling does not use them there.)
         self.f_coefficients = _read_only(f_tau_coefficients(self.order))
         self.f_dot_coefficients = _read_only(f_tau_coefficients(self.order, 1))
-        with np.errstate(over="ignore", invalid="ignore"):
+        with np.errstate(over="ignore", invalid="ignore"):  # b/T > 1e60: σ overflows
             s = sigma_tau_coefficients(T, self.b, self.order)
             k = np.arange(1, s.shape[1])
             sigma_dot = s[:, 1:] * k if s.shape[1] > 1 else np.zeros((self.n_phases, 1))
@@ -95,6 +95,7 @@ class PhaseSchedule:
         self._p_dot_coefficients = np.where(closed[:, None], sigma_dot, 0.0)
         self._p_T = _read_only(np.where(closed, sigma_T, 0.0))
         self._any_series = bool(series.size)
+        self._all_series = series.size == self.n_phases
         self._series_row = np.full(self.n_phases, -1)
         self._series_row[series] = np.arange(series.size)
         self._beta_series = (
@@ -118,6 +119,8 @@ class PhaseSchedule:
 
     def sample_p(self, phi: NDArray, t_phi: NDArray, T: NDArray) -> NDArray[np.float64]:
         """p(t) of the module docstring (σ(t) or β(t)) at local times t_φ of phases φ."""
+        if self._all_series:
+            return _horner_rows(self._beta_series[phi], (2.0 * t_phi - T) / T)
         p = _horner_rows(self._p_coefficients[phi], t_phi / T)
         if self._any_series:
             row = self._series_row[phi]
