@@ -52,7 +52,9 @@ class PhaseSchedule:
 
     Holds α_0,φ, β_0,φ, γ_0,φ of eq. (15), the σ polynomials of eq. (8) per phase, and the
     scalar weight matrices of eqs. (20), (21) (computed lazily). Shared by every Preview built
-    from the same timing, since the mappings are linear in the waypoints.
+    from the same timing, since the mappings are linear in the waypoints. ``closed_form[φ]``
+    says whether phase φ is sampled by eq. (10) as printed or by the series of β (module
+    docstring).
     """
 
     def __init__(self, durations: ArrayLike, b: float, order: int) -> None:
