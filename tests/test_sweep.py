@@ -89,6 +89,8 @@ def test_step_adjustment_recovers_larger_lateral_impulse(tmp_path: Path) -> None
         (["--step", "40"], "--step"),
         (["--controllers", "tracking,magic"], "magic"),
         (["--sim", "ode"], "--sim"),
+        (["--address", "127.0.0.1:6379", "--jobs", "2"], "--jobs"),
+        (["--grid", "6"], "--coarse"),
     ],
 )
 def test_bad_input_exits_2(capsys, args, needle) -> None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import collections
 import logging
+import os
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -189,11 +190,14 @@ def ray_init(num_cpus: int | None = None, address: str | None = None) -> bool:
     """Start a local Ray instance (``address`` None) or connect to a cluster; False if Ray was
     running in this process already (then nothing is started).
 
-    Quiet: no dashboard, workers' output not forwarded, Ray's own log at ERROR.  Ray 2.60
+    Quiet: no dashboard, workers' output not forwarded, Ray's own log at ERROR, no usage stats
+    (unless ``RAY_USAGE_STATS_ENABLED`` says otherwise).  Ray 2.60
     enables token authentication for local instances and says so in a WARNING; it stays on (the
     warning is silenced with the rest of Ray's log).  A cluster gets this checkout's ``dcmviz``
     shipped to its workers (``runtime_env`` ``py_modules``); they need its dependencies.
     """
+    # no usage report to Anyscale unless the user asked for it
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
     import ray
 
     if ray.is_initialized():
