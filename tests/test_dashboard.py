@@ -344,7 +344,7 @@ def test_mode_robot_and_backend_switch(dash: Dashboard) -> None:
     drain(dash)
     assert dash.loop.session.config.robot.model == "g1"
     lo, hi = get_spec("g1").b_range_s
-    assert lo <= dash.config.dcm.b <= hi and dash.config.dcm.b == pytest.approx(0.261)
+    assert lo <= dash.config.dcm.b <= hi and dash.config.dcm.b == pytest.approx(0.26)  # on the grid
     assert dash.controls.handles[("dcm", "b")].value == dash.config.dcm.b
     assert dash.push_panel.gui_push_body.options == tuple(get_spec("g1").bodies)
     dash.loop._publish()

@@ -17,7 +17,7 @@ import numpy as np
 import viser
 
 from dcmviz.config import Config, ConfigError, config_from_dict
-from dcmviz.dashboard.gui import GEOMETRY_FIELDS, parse_value
+from dcmviz.dashboard.gui import DCM_SLIDERS, GEOMETRY_FIELDS, parse_value
 from dcmviz.dashboard.loop import SimLoop
 from dcmviz.dashboard.notify import Notifier
 from dcmviz.gait import plan_footsteps, plan_from_config
@@ -25,13 +25,15 @@ from dcmviz.robots import get_spec
 
 CURRENT = "(current)"  # the preset dropdown's entry for a configuration edited in the panel
 
+B_STEP = DCM_SLIDERS[0].step  # s, the b slider's step
+
 Applied = Callable[[Config, str], None]  # (config, preset name or CURRENT)
 Rejected = Callable[[Config], None]  # (the config kept)
 
 
-def fit_b_to_robot(data: dict[str, Any]) -> None:
-    """A b the newly chosen robot cannot walk at becomes its nominal b (CoM at standing height),
-    so picking another robot in the dropdown is never refused for the previous robot's b."""
+def fit_b_to_robot(data: dict[str, Any], step: float = B_STEP) -> None:
+    """A b the newly chosen robot cannot walk at becomes its nominal b (CoM at standing height)
+    on the b slider's grid, so picking another robot is never refused for the previous one's b."""
     try:
         spec = get_spec(data["robot"]["model"])
     except (KeyError, ValueError):
@@ -39,8 +41,9 @@ def fit_b_to_robot(data: dict[str, Any]) -> None:
     lo, hi = spec.b_range_s
     b = data.setdefault("dcm", {}).get("b")
     if not isinstance(b, float | int) or not lo <= b <= hi:
-        lo_ms, hi_ms = math.ceil(lo * 1000.0), math.floor(hi * 1000.0)  # whole ms inside
-        data["dcm"]["b"] = min(max(round(spec.b_nominal_s * 1000.0), lo_ms), hi_ms) / 1000.0
+        n_lo, n_hi = math.ceil(lo / step - 1e-9), math.floor(hi / step + 1e-9)  # grid inside
+        n = min(max(round(spec.b_nominal_s / step), n_lo), n_hi)
+        data["dcm"]["b"] = round(n * step, 6)
 
 
 class ConfigEditor:
