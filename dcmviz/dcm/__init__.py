@@ -8,7 +8,14 @@ from dcmviz.dcm.adjustment import (
     step_adjustment,
 )
 from dcmviz.dcm.continuity import continuity_matrix, continuity_waypoints
-from dcmviz.dcm.control import com_force, dcm, vrp_adjusted, vrp_from_force, vrp_tracking
+from dcmviz.dcm.control import (
+    com_force,
+    dcm,
+    vrp_adjusted,
+    vrp_from_force,
+    vrp_height,
+    vrp_tracking,
+)
 from dcmviz.dcm.interpolation import (
     ORDERS,
     alpha,
@@ -36,6 +43,7 @@ __all__ = [
     "step_adjustment",
     "vrp_adjusted",
     "vrp_from_force",
+    "vrp_height",
     "vrp_tracking",
     "ORDERS",
     "PhaseSchedule",

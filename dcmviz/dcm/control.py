@@ -1,9 +1,17 @@
-"""DCM controllers and the VRP → CoM force map (eqs. 1, 4, 24, 40, 41)."""
+"""DCM controllers, Δz_vrp and the VRP → CoM force map (eqs. 1, 4, 24, 40, 41)."""
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+
+from dcmviz import GRAVITY
+
+
+def vrp_height(b: float) -> float:
+    """Δz_vrp = g b² (m): the height of the VRP above the eCMP, and the CoM height of a robot
+    standing with this b (the definition of b below eq. 1)."""
+    return GRAVITY * b * b
 
 
 def dcm(com: NDArray, com_velocity: NDArray, b: float) -> NDArray:

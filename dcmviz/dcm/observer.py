@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from dcmviz import GRAVITY
+
 
 class DisturbanceObserver:
     """Discrete observer of the external force (eqs. 45, 46); continuous form eqs. (42)–(44).
@@ -53,7 +55,7 @@ def reference_shift(f_hat: NDArray, mass: float, b: float) -> NDArray:
     return -(b * b / mass) * np.asarray(f_hat, dtype=float)
 
 
-def moment_shift(tau_hat: NDArray, mass: float, gravity: float = 9.81) -> NDArray:
+def moment_shift(tau_hat: NDArray, mass: float, gravity: float = GRAVITY) -> NDArray:
     """Extra reference offset (−τ̂_y, τ̂_x, 0)/(m g) for an external moment τ̂ about the CoM.
 
     Not in the paper, whose shift (47)–(49) assumes the force acts at the CoM: a push above the

@@ -21,9 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dcmviz import GRAVITY
 from dcmviz.config import Config, GaitSection
-from dcmviz.dcm import Preview, continuity_waypoints
+from dcmviz.dcm import Preview, continuity_waypoints, vrp_height
 from dcmviz.gait.footsteps import plan_footsteps
 from dcmviz.state import OTHER, Footstep
 
@@ -73,7 +72,7 @@ class GaitPlan:
     @property
     def dz_vrp(self) -> float:
         """Δz_vrp = g b² (eq. 1)."""
-        return GRAVITY * self.b * self.b
+        return vrp_height(self.b)
 
     @property
     def duration(self) -> float:
@@ -234,7 +233,7 @@ def build_plan(
     """
     if len(steps) == 0:
         raise ValueError("steps: a plan needs at least one footstep")
-    dz = np.array([0.0, 0.0, GRAVITY * b * b])
+    dz = np.array([0.0, 0.0, vrp_height(b)])
     feet = dict(start_feet)
     wps: list[np.ndarray] = []
     kinds: list[str] = []

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from dcmviz import GRAVITY
+from dcmviz.dcm.control import vrp_height
 
 
 @dataclass(frozen=True)
@@ -52,7 +53,7 @@ class RobotSpec:
 
     def height_problem(self, b: float) -> str:
         """'' if Δz_vrp = g b² is a CoM height the robot walks at, else why not."""
-        height = GRAVITY * b * b
+        height = vrp_height(b)
         lo, hi = self.com_height_range_m
         if lo - 1e-9 <= height <= hi + 1e-9:
             return ""
