@@ -40,6 +40,7 @@ from dcmviz.dashboard.recording import RecordingPanel
 from dcmviz.dashboard.render import SimView
 from dcmviz.dashboard.sim_panel import SimPanel
 from dcmviz.dashboard.status import StatusLine
+from dcmviz.dcm.control import vrp_height
 from dcmviz.session import Session
 
 SessionFactory = Callable[[Config], Session]
@@ -52,7 +53,7 @@ def new_session(config: Config) -> Session:
 def dz_vrp_text(config: Config) -> str:
     """Markdown: Δz_vrp = g b² of the configured b (eq. 1)."""
     b = config.dcm.b
-    return f"Δz_vrp = g b² = {GRAVITY:.2f} · {b:.3f}² = **{GRAVITY * b * b:.3f} m**"
+    return f"Δz_vrp = g b² = {GRAVITY:.2f} · {b:.3f}² = **{vrp_height(b):.3f} m**"
 
 
 class Dashboard:
