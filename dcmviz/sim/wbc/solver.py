@@ -91,8 +91,19 @@ class WholeBodyController:
         self._sense = np.zeros(nx + self.n_rows, dtype=np.int32)
         self._reg = np.full(nx, g.w_qdd_reg)
         for s in SIDES:
-            self._reg[lay.wrench[s]] = g.w_wrench_reg / mass**2
+            self._reg[lay.wrench[s]] = 0.0  # the wrench term depends on the sole's rotation
+        # Σ of the squared forces at the sole's 4 corners (times 4) for a wrench [f; τ] in sole
+        # axes: ‖f‖² + τ_x²/a_y² + τ_y²/a_x² + τ_z²/(a_x² + a_y²), a the half-length and
+        # half-width (the corners' grasp matrix G has G Gᵀ = 4 diag(I, a_y², a_x², a_x² + a_y²)):
+        # a moment costs what the corner forces making it cost, so the split of the wrenches
+        # between the feet keeps each CoP away from the sole's edges unless a task needs it.
+        ax, ay = robot.foot_length / 2, robot.foot_width / 2
+        self._wrench_reg = g.w_wrench_reg / mass**2
+        self._moment_metric = np.diag([1 / ay**2, 1 / ax**2, 1 / (ax**2 + ay**2)])
         self._H_constant = np.diag(self._reg)  # regularisation + state-independent AᵀA
+        for s in SIDES:
+            i = lay.wrench[s].start
+            self._H_constant[i : i + 3, i : i + 3] += self._wrench_reg * np.eye(3)
         for task in self.tasks:
             if task.constant_gram is not None:
                 self._H_constant += task.weight * task.constant_gram
@@ -124,6 +135,10 @@ class WholeBodyController:
             ctx.active[s] = bool(in_contact[s] and cmd.support[s])
         H = self._H_constant.copy()
         c = np.zeros(nx)
+        for s in SIDES:
+            i = lay.wrench[s].start + 3
+            R = ctx.sole_rotation[s]
+            H[i : i + 3, i : i + 3] += self._wrench_reg * (R @ self._moment_metric @ R.T)
         for task in self.tasks:
             out = task.compute(ctx, cmd)
             if out is None:
