@@ -59,7 +59,60 @@ def test_slider_ranges_follow_the_schema() -> None:
     assert label("control", "k_xi") == "k_ξ [1/s]"
 
 
-def slider_range_of(section: str, name: str) -> tuple[float, float]:
+def test_slider_ranges_are_what_validation_accepts() -> None:
+    """Every end of a robot-dependent slider is accepted; one grid step beyond it is refused
+    (issue 14: the top of Δx and w was always rejected)."""
+    from dcmviz.config import ConfigError, config_from_dict
+    from dcmviz.dashboard.gui import ALL_SLIDERS, ROBOT_BOUNDS
+
+    for robot in ("talos", "g1"):
+        spec = get_spec(robot)
+        for slider in ALL_SLIDERS:
+            if (slider.section, slider.name) not in ROBOT_BOUNDS:
+                continue
+            lo, hi = slider_range(slider, spec)
+            for value, beyond in ((lo, lo - slider.step), (hi, hi + slider.step)):
+                data = Config().replace(robot={"model": robot}, dcm={"b": spec.b_nominal_s})
+                data = data.to_dict()
+                data.setdefault(slider.section, {})[slider.name] = value
+                config_from_dict(data)  # accepted
+                data[slider.section][slider.name] = round(beyond, 6)
+                with pytest.raises(ConfigError):
+                    config_from_dict(data)
+    talos = get_spec("talos")
+    assert slider_range_of("gait", "step_length", talos) == (-0.45, 0.45)
+    assert slider_range_of("gait", "step_width", talos) == (0.14, 0.5)
+    assert slider_range_of("dcm", "b", talos) == (0.271, 0.302)
+
+
+def test_feasibility_warnings_beside_the_preview_and_in_the_scene(dash: Dashboard) -> None:
+    """Issue 9: a setting outside the robot's reach gives a visible warning: a markdown block in
+    the Plan tab, a line in the status, red marks on the offending steps and waypoints."""
+    assert "Feasible" in dash.feasibility.gui_warnings.content
+    assert dash.editor.on_field_change("gait", "t_start", 0.2)  # D2 leaves the support polygon
+    text = dash.feasibility.gui_warnings.content
+    assert "this edit" in text and "gait.t_start" in text and "D2" in text
+    drain(dash)  # the walk takes it: the walked plan's warnings, and the marks in the scene
+    assert "the walked plan" in dash.feasibility.gui_warnings.content
+    assert any(w.waypoint == 1 for w in dash.preview.warnings)
+    assert "gait.t_start" in dash.view.status.text(dash.loop.snapshot, 40.0, 0.0)
+    assert dash.editor.on_field_change("gait", "t_ss", 0.2)  # too fast a swing for 0.2 m steps
+    drain(dash)
+    steps = {w.step for w in dash.preview.warnings if w.step is not None}
+    assert steps and "gait.t_ss" in dash.feasibility.gui_warnings.content
+    assert dash.editor.on_field_change("gait", "t_ss", 0.7)
+    assert dash.editor.on_field_change("gait", "t_start", 1.0)
+    drain(dash)
+    assert dash.preview.warnings == () and "Feasible" in dash.feasibility.gui_warnings.content
+    assert "feasibility" not in dash.view.status.text(dash.loop.snapshot, 40.0, 0.0)
+
+
+def test_dz_vrp_line_names_the_robots_com_heights(dash: Dashboard) -> None:
+    text = dash.controls.extra["dz_vrp"].content
+    assert "0.883 m" in text and "Talos walks at 0.72–0.90 m" in text
+
+
+def slider_range_of(section: str, name: str, robot=None) -> tuple[float, float]:
     from dcmviz.dashboard.gui import CONTROL_SLIDERS, DCM_SLIDERS, FOOTSTEP_SLIDERS
 
     spec = next(
@@ -67,7 +120,7 @@ def slider_range_of(section: str, name: str) -> tuple[float, float]:
         for s in FOOTSTEP_SLIDERS + DCM_SLIDERS + CONTROL_SLIDERS
         if (s.section, s.name) == (section, name)
     )
-    return slider_range(spec)
+    return slider_range(spec, robot)
 
 
 def test_field_change_rebuilds_preview_and_session(dash: Dashboard) -> None:
@@ -344,8 +397,12 @@ def test_mode_robot_and_backend_switch(dash: Dashboard) -> None:
     drain(dash)
     assert dash.loop.session.config.robot.model == "g1"
     lo, hi = get_spec("g1").b_range_s
-    assert lo <= dash.config.dcm.b <= hi and dash.config.dcm.b == pytest.approx(0.26)  # on the grid
-    assert dash.controls.handles[("dcm", "b")].value == dash.config.dcm.b
+    assert lo <= dash.config.dcm.b <= hi and dash.config.dcm.b == pytest.approx(
+        0.261
+    )  # on the grid
+    b = dash.controls.handles[("dcm", "b")]
+    assert b.value == dash.config.dcm.b
+    assert (b.min, b.max) == (0.239, 0.263)  # the slider follows the robot
     assert dash.push_panel.gui_push_body.options == tuple(get_spec("g1").bodies)
     dash.loop._publish()
     assert dash.loop.snapshot.robot == "g1" and dash.loop.snapshot.backend == "lip"

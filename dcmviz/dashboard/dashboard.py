@@ -28,6 +28,7 @@ from dcmviz import GRAVITY
 from dcmviz.config import Config
 from dcmviz.dashboard import scene
 from dcmviz.dashboard.editor import CURRENT, ConfigEditor
+from dcmviz.dashboard.feasibility import FeasibilityPanel, likely_cause
 from dcmviz.dashboard.guard import install_guard
 from dcmviz.dashboard.gui import Controls
 from dcmviz.dashboard.loop import SimLoop
@@ -41,6 +42,7 @@ from dcmviz.dashboard.render import SimView
 from dcmviz.dashboard.sim_panel import SimPanel
 from dcmviz.dashboard.status import StatusLine
 from dcmviz.dcm.control import vrp_height
+from dcmviz.robots import get_spec
 from dcmviz.session import Session
 
 SessionFactory = Callable[[Config], Session]
@@ -51,9 +53,15 @@ def new_session(config: Config) -> Session:
 
 
 def dz_vrp_text(config: Config) -> str:
-    """Markdown: Δz_vrp = g b² of the configured b (eq. 1)."""
+    """Markdown: Δz_vrp = g b² of the configured b (eq. 1) and the CoM heights the robot walks at."""
     b = config.dcm.b
-    return f"Δz_vrp = g b² = {GRAVITY:.2f} · {b:.3f}² = **{vrp_height(b):.3f} m**"
+    spec = get_spec(config.robot.model)
+    lo, hi = spec.com_height_range_m
+    b_lo, b_hi = spec.b_range_s
+    return (
+        f"Δz_vrp = g b² = {GRAVITY:.2f} · {b:.3f}² = **{vrp_height(b):.3f} m**; "
+        f"{spec.name.capitalize()} walks at {lo:.2f}–{hi:.2f} m (b {b_lo:.3f}–{b_hi:.3f} s)"
+    )
 
 
 class Dashboard:
@@ -72,7 +80,7 @@ class Dashboard:
         self.server = server
         self.notifier = Notifier(server)
         install_guard(server, notify=self.notifier.notify_client_id)
-        self.loop = SimLoop(session_factory, config, on_event=self.notifier.on_sim_event)
+        self.loop = SimLoop(session_factory, config, on_event=self._on_sim_event)
         self.editor = ConfigEditor(config, self.loop, self.notifier)
         scene.draw_ground(server)
 
@@ -83,6 +91,8 @@ class Dashboard:
         self.gui_status = gui.add_markdown("**dcmviz** starting…")
         tabs = gui.add_tab_group()
         with tabs.add_tab("Plan", viser.Icon.SHOE):
+            self.gui_push_hint = gui.add_markdown("")  # push without hunting (the Simulate tab)
+            self.feasibility = FeasibilityPanel(gui)
             self.controls = Controls(gui, config)
         with tabs.add_tab("Simulate", viser.Icon.PLAYER_PLAY):
             self.sim_panel = SimPanel(gui, self.loop, self.controls, config)
@@ -104,12 +114,15 @@ class Dashboard:
 
         self.preview = PlanView(
             server, self.loop, self.preview_plots, self.controls.extra["gizmos"],
-            self.editor.on_footstep_moved,
+            self.notifier.guarded("dragging a footstep", self.editor.on_footstep_moved),
+            config=lambda: self.editor.config,
+            on_warnings=lambda warnings: self.feasibility.show(warnings, "the walked plan"),
         )  # fmt: skip
         self.view = SimView(
             server, self.loop, live_plot=self.live_plot,
-            status=StatusLine(self.gui_status, self.config_name),
-            gui_follow=self.sim_panel.gui_follow, on_body_click=self.push_panel.on_body_click,
+            status=StatusLine(self.gui_status, self.config_name, extra=self.status_extra),
+            gui_follow=self.sim_panel.gui_follow,
+            on_body_click=self.notifier.guarded("click-to-push", self.push_panel.on_body_click),
         )  # fmt: skip
         self._wire()
         self.show_config(config, preset)
@@ -119,10 +132,19 @@ class Dashboard:
 
     def _wire(self) -> None:
         """Controls → editor → (panels, plan view); refusals put the controls back."""
-        self.controls.on_change(self.editor.on_field_change)
+        self.controls.on_change(self.notifier.guarded("a control", self.editor.on_field_change))
         self.controls.extra["reset_footsteps"].on_click(
-            lambda event: self.editor.on_regenerate_footsteps(event.client)
+            self.notifier.guarded(
+                "regenerate footsteps",
+                lambda event: self.editor.on_regenerate_footsteps(event.client),
+            )
         )
+        self.editor.on_applied(
+            lambda config, preset: self.feasibility.show(self.editor.warnings, "this edit")
+        )
+        self.push_panel.on_hint(self.show_push_hint)
+        self.show_push_hint(self.push_panel.hint())
+        self.server.on_client_connect(self._on_connect)
         self.editor.on_applied(self.show_config)
         self.editor.on_applied(lambda config, preset: self.preview.expect(self.editor.version))
         self.editor.on_rejected(self.controls.show)
@@ -132,6 +154,31 @@ class Dashboard:
         """The Plan tab shows an adopted config (the other panels listen to the editor)."""
         self.controls.show(config)
         self.controls.extra["dz_vrp"].content = dz_vrp_text(config)
+
+    def show_push_hint(self, hint: str) -> None:
+        self.gui_push_hint.content = f"<small>👆 **{hint}**</small>"
+
+    def status_extra(self) -> str:
+        """Status lines after the walk state: the plan's feasibility, what a click pushes."""
+        warn = self.feasibility.compact()
+        return "  \n".join(x for x in (warn, self.push_panel.status()) if x)
+
+    def _on_connect(self, client: viser.ClientHandle) -> None:
+        """The first viewer sees the walk from its start (not a walk that ended before the page
+        opened): when nobody else is watching, the plan restarts."""
+        if len(self.server.get_clients()) <= 1 and self.config.gait.mode == "plan":
+            self.loop.post("reset")
+
+    def _on_sim_event(self, kind: str, message: str) -> None:
+        """A fall or fault (on the simulation thread): shown once, with its likely cause."""
+        try:
+            session = self.loop.session
+            pushed = any(p.start - 0.1 <= session.t <= p.start + p.duration + 1.5
+                         for p in session.pushes)  # fmt: skip
+            cause = likely_cause(self.feasibility.warnings, self.editor.config, pushed)
+        except Exception as err:  # noqa: BLE001 - explaining must not fail the report
+            cause = f"cause unknown ({err!r})"
+        self.notifier.on_sim_event(kind, f"{message} {cause[0].upper()}{cause[1:]}.")
 
     # -- what tests, benchmarks and the status line read -----------------------------------------
     @property

@@ -17,10 +17,11 @@ import numpy as np
 import viser
 
 from dcmviz.config import Config, ConfigError, config_from_dict
+from dcmviz.dashboard.feasibility import plan_warnings
 from dcmviz.dashboard.gui import DCM_SLIDERS, GEOMETRY_FIELDS, parse_value
 from dcmviz.dashboard.loop import SimLoop
 from dcmviz.dashboard.notify import Notifier
-from dcmviz.gait import plan_footsteps, plan_from_config
+from dcmviz.gait import PlanWarning, plan_footsteps, plan_from_config
 from dcmviz.robots import get_spec
 
 CURRENT = "(current)"  # the preset dropdown's entry for a configuration edited in the panel
@@ -52,6 +53,7 @@ class ConfigEditor:
     def __init__(self, config: Config, loop: SimLoop, notifier: Notifier) -> None:
         self.config = config
         self.version = 0
+        self.warnings: tuple[PlanWarning, ...] = ()  # feasibility of the last adopted edit's plan
         self.loop = loop
         self.notifier = notifier
         self._lock = threading.RLock()
@@ -123,10 +125,11 @@ class ConfigEditor:
         """
         with self._lock:
             try:
-                plan_from_config(config)  # a plan can be built (footsteps within reach, …)
+                plan = plan_from_config(config)  # a plan can be built (footsteps within reach, …)
             except ValueError as err:
                 self.reject(str(err), client)
                 return False
+            self.warnings = plan_warnings(plan, config)  # shown before the walk takes it
             self.config = config
             self.version += 1
             self.loop.post("config", (self.version, config))

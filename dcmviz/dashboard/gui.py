@@ -7,6 +7,7 @@ them; what a change means lives in :class:`~dcmviz.dashboard.editor.ConfigEditor
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -15,6 +16,7 @@ from typing import Any
 import viser
 
 from dcmviz.config import Config, field_info
+from dcmviz.robots import RobotSpec, get_spec
 
 
 @dataclass(frozen=True)
@@ -37,7 +39,7 @@ FOOTSTEP_SLIDERS = (
     SliderSpec("gait", "t_start", 0.1),
     SliderSpec("gait", "t_stop", 0.1),
 )
-DCM_SLIDERS = (SliderSpec("dcm", "b", 0.005),)
+DCM_SLIDERS = (SliderSpec("dcm", "b", 0.001),)
 CONTROL_SLIDERS = (
     SliderSpec("control", "k_xi", 0.1),
     SliderSpec("control", "max_step_adjustment", 0.01),
@@ -54,8 +56,19 @@ def label(section: str, name: str) -> str:
     return f"{text} [{info['unit']}]" if info["unit"] else text
 
 
-def slider_range(spec: SliderSpec) -> tuple[float, float]:
-    """(min, max) of a slider: the schema bounds (open bounds moved in by one step)."""
+# what the robot can do, for the sliders whose valid range depends on it (the preset validation
+# refuses the rest: reach in dcmviz.robots.reach, CoM height in RobotSpec.height_problem)
+ROBOT_BOUNDS: dict[tuple[str, str], Callable[[RobotSpec], tuple[float, float]]] = {
+    ("gait", "step_length"): lambda r: (-r.max_step_length_m, r.max_step_length_m),
+    ("gait", "step_width"): lambda r: (r.min_step_width_m, r.max_step_width_m),
+    ("gait", "step_height"): lambda r: (-r.max_step_height_m, r.max_step_height_m),
+    ("dcm", "b"): lambda r: r.b_range_s,
+}
+
+
+def slider_range(spec: SliderSpec, robot: RobotSpec | None = None) -> tuple[float, float]:
+    """(min, max) of a slider: the schema bounds (open bounds moved in by one step), within what
+    ``robot`` can do, on the slider's grid (every position is a value validation accepts)."""
     info = field_info(spec.section, spec.name)
     lo = info.get("ge", info["gt"] + spec.step if "gt" in info else 0.0)
     hi = info.get("le", info["lt"] - spec.step if "lt" in info else lo + 100 * spec.step)
@@ -63,7 +76,16 @@ def slider_range(spec: SliderSpec) -> tuple[float, float]:
         lo = max(lo, spec.lo)
     if spec.hi is not None:
         hi = min(hi, spec.hi)
+    bounds = ROBOT_BOUNDS.get((spec.section, spec.name))
+    if robot is not None and bounds is not None:
+        r_lo, r_hi = bounds(robot)
+        lo, hi = max(lo, r_lo), min(hi, r_hi)
+    lo = math.ceil(lo / spec.step - 1e-9) * spec.step  # inwards onto the grid
+    hi = math.floor(hi / spec.step + 1e-9) * spec.step
     return round(lo, 6), round(hi, 6)
+
+
+ALL_SLIDERS = FOOTSTEP_SLIDERS + DCM_SLIDERS + CONTROL_SLIDERS
 
 
 class Controls:
@@ -75,6 +97,7 @@ class Controls:
         self._quiet = threading.local()
         self.extra: dict[str, Any] = {}
         self._callback: Callable[[str, str, Any, viser.ClientHandle | None], None] | None = None
+        self.robot = get_spec(config.robot.model)
 
         with gui.add_folder("Footsteps"):
             for spec in FOOTSTEP_SLIDERS:
@@ -102,7 +125,7 @@ class Controls:
 
     # -- construction ---------------------------------------------------------------------------
     def _slider(self, spec: SliderSpec, config: Config) -> None:
-        lo, hi = slider_range(spec)
+        lo, hi = slider_range(spec, self.robot)
         value = getattr(getattr(config, spec.section), spec.name)
         info = field_info(spec.section, spec.name)
         handle = self.gui.add_slider(
@@ -161,8 +184,21 @@ class Controls:
 
         return forward
 
+    def set_robot(self, robot: RobotSpec) -> None:
+        """Slider ranges for ``robot`` (reach, CoM height): exactly what validation accepts."""
+        self.robot = robot
+        for spec in ALL_SLIDERS:
+            handle = self.handles.get((spec.section, spec.name))
+            if handle is None or (spec.section, spec.name) not in ROBOT_BOUNDS:
+                continue
+            lo, hi = slider_range(spec, robot)
+            if (handle.min, handle.max) != (lo, hi):
+                handle.min, handle.max = lo, hi
+
     def show(self, config: Config) -> None:
         """Write a config into the controls without triggering the change callbacks."""
+        if config.robot.model != self.robot.name:
+            self.set_robot(get_spec(config.robot.model))
         self._quiet.on = True
         try:
             for (section, name), handle in self.handles.items():

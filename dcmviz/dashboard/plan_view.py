@@ -15,17 +15,20 @@ from collections.abc import Callable
 import numpy as np
 import viser
 
+from dcmviz.config import Config
 from dcmviz.dashboard import scene as draw
+from dcmviz.dashboard.feasibility import plan_warnings
 from dcmviz.dashboard.loop import SimLoop, Snapshot
 from dcmviz.dashboard.plots import PreviewPlots
 from dcmviz.dashboard.preview import PreviewData, preview_data
-from dcmviz.gait import GaitPlan
+from dcmviz.gait import GaitPlan, PlanWarning
 from dcmviz.robots import get_spec
 
 POLL_S = 0.004  # how often the drawing thread looks for a new plan (cheap: one comparison)
 KEPT_LATENCIES = 200
 
 FootstepMoved = Callable[[int, np.ndarray, viser.ClientHandle | None], bool]
+Warned = Callable[[tuple[PlanWarning, ...]], None]
 
 
 class PlanView:
@@ -38,8 +41,14 @@ class PlanView:
         plots: PreviewPlots,
         gui_gizmos: viser.GuiInputHandle[bool],
         on_footstep_moved: FootstepMoved,
+        *,
+        config: Callable[[], Config] | None = None,
+        on_warnings: Warned | None = None,
     ) -> None:
         self.server = server
+        self.config = config  # the settings the walked plan came from (names in the warnings)
+        self.on_warnings = on_warnings
+        self.warnings: tuple[PlanWarning, ...] = ()  # of the drawn plan
         self.loop = loop
         self.plots = plots
         self.gui_gizmos = gui_gizmos
@@ -118,11 +127,21 @@ class PlanView:
     def draw_plan(self, plan: GaitPlan, robot: str) -> PreviewData:
         """Sample the plan and redraw the 3-D preview, the gizmos and the Fig. 1a plots."""
         data = preview_data(plan, get_spec(robot))
+        warnings = plan_warnings(plan, self.config()) if self.config is not None else ()
+        steps = {w.step for w in warnings if w.step is not None}
+        waypoints = sorted({w.waypoint for w in warnings if w.waypoint is not None})
         with self._draw_lock:
             with self.server.atomic():
                 draw.draw_footsteps(self.server.scene, data)
                 draw.draw_preview(self.server.scene, data)
-            self.plan, self.data = plan, data
+                draw.draw_warnings(
+                    self.server.scene, [s for s in data.soles if s.index in steps],
+                    data.waypoints[[w for w in waypoints if w < len(data.waypoints)]],
+                    data.foot_length, data.foot_width,
+                )  # fmt: skip
+            self.plan, self.data, self.warnings = plan, data, warnings
+            if self.on_warnings is not None:
+                self.on_warnings(warnings)
             self.draws += 1
             self.draw_gizmos()
             self.plots.draw(data)

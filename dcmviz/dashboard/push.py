@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import viser
@@ -14,6 +15,8 @@ from dcmviz.dashboard.loop import SimLoop
 from dcmviz.dashboard.notify import Notifier
 from dcmviz.robots import get_spec
 
+LAST_PUSH_SHOW_S = 4.0  # the status line names a click's push this long
+
 
 def horizontal_force(direction: Sequence[float], magnitude: float) -> tuple[float, float, float]:
     """``magnitude`` N along the horizontal part of ``direction`` (+y if it has none)."""
@@ -22,6 +25,17 @@ def horizontal_force(direction: Sequence[float], magnitude: float) -> tuple[floa
     n = float(np.linalg.norm(d))
     d = d / n if n > 1e-9 else np.array([0.0, 1.0, 0.0])
     return tuple(float(c) for c in magnitude * d)
+
+
+def describe(force: Sequence[float]) -> str:
+    """'150 N toward +x (ψ_F = 0°)': a horizontal force's magnitude and direction."""
+    fx, fy = float(force[0]), float(force[1])
+    angle = math.degrees(math.atan2(fy, fx))
+    names = ((0, "forward +x"), (90, "left +y"), (180, "backward −x"), (-90, "right −y"),
+             (-180, "backward −x"))  # fmt: skip
+    near = min(names, key=lambda n: abs(n[0] - angle))
+    toward = f" ({near[1]})" if abs(near[0] - angle) <= 22.5 else ""
+    return f"{math.hypot(fx, fy):.0f} N at ψ_F = {angle:.0f}°{toward}"
 
 
 def heading(direction_deg: float) -> tuple[float, float, float]:
@@ -39,6 +53,9 @@ class PushPanel:
         self.loop = loop
         self.editor = editor
         self.notifier = notifier
+        self.clicks = 0  # clicks on the robot that reached the server
+        self.last_push = (-math.inf, "")  # (monotonic time, what the last click pushed)
+        self._hint_listeners: list[Callable[[str], None]] = []
         with gui.add_folder("Push"):
             self.gui_push_direction = gui.add_slider(
                 "direction ψ_F [deg]", min=-180.0, max=180.0, step=5.0, initial_value=90.0,
@@ -62,7 +79,9 @@ class PushPanel:
                 "ramp": self.gui_push_ramp,
             }
             self.gui_push = gui.add_button("Push", color="red", icon=viser.Icon.HAND_STOP)
-            self.gui_push.on_click(lambda event: self.on_push(event.client))
+            self.gui_push.on_click(
+                notifier.guarded("Push", lambda event: self.on_push(event.client))
+            )
             gui.add_markdown(
                 "<small>Or click the robot: it is pushed at that body along the view "
                 "direction. Arrows: <span style='color:#e61e1e'>applied force</span>, "
@@ -70,6 +89,23 @@ class PushPanel:
                 "</small>"
             )
         editor.on_applied(self.show)
+        for handle in (self.gui_push_magnitude, self.gui_push_duration):
+            handle.on_update(lambda _: self._hint_changed())
+
+    def hint(self) -> str:
+        """What a click on the robot does, with the force it will apply."""
+        return (
+            f"Click the robot to push it: {self.gui_push_magnitude.value:.0f} N for "
+            f"{self.gui_push_duration.value:.2f} s along your view (Simulate tab → Push)"
+        )
+
+    def on_hint(self, listener: Callable[[str], None]) -> None:
+        """Call ``listener(hint)`` when the force a click applies changes."""
+        self._hint_listeners.append(listener)
+
+    def _hint_changed(self) -> None:
+        for listener in list(self._hint_listeners):
+            listener(self.hint())
 
     def show(self, config: Config, preset: str) -> None:
         """The push bodies of the configured robot."""
@@ -87,8 +123,20 @@ class PushPanel:
 
     def on_body_click(self, body: str, event: viser.SceneNodePointerEvent) -> bool:
         """The robot was clicked: push that body along the horizontal view direction."""
+        self.clicks += 1
         force = horizontal_force(event.ray_direction, self.gui_push_magnitude.value)
-        return self.push(force, body, event.client)
+        ok = self.push(force, body, event.client)
+        if ok:  # the status line says it (a pop-up per click would cover the robot)
+            self.last_push = (
+                time.monotonic(),
+                f"pushed {body}: {describe(force)} for {self.gui_push_duration.value:.2f} s",
+            )
+        return ok
+
+    def status(self) -> str:
+        """The last click's push for a few seconds, else what a click will do."""
+        t, text = self.last_push
+        return text if time.monotonic() - t < LAST_PUSH_SHOW_S else self.hint()
 
     def push(
         self, force: tuple[float, float, float], body: str, client: viser.ClientHandle | None

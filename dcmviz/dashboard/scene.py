@@ -111,6 +111,35 @@ def draw_preview(scene: viser.SceneApi, data: PreviewData) -> None:
     )  # fmt: skip
 
 
+WARNING_COLOR = (230, 20, 20)
+
+
+def draw_warnings(
+    scene: viser.SceneApi, soles: Sequence[Sole], waypoints: np.ndarray, length: float,
+    width: float,
+) -> None:  # fmt: skip
+    """Red outlines around the footsteps and red spheres on the VRP waypoints a feasibility
+    warning names (an empty frame when there are none, so the last marks disappear)."""
+    if len(soles):
+        segments = []
+        for sole in soles:
+            c = sole.corners(length * 1.15, width * 1.3) + [0.0, 0.0, 0.015]
+            segments += [[c[i], c[(i + 1) % 4]] for i in range(4)]
+        scene.add_line_segments(
+            "/preview/warnings/steps", np.array(segments, np.float32), WARNING_COLOR,
+            thickness=5.0, thickness_units="screen",
+        )  # fmt: skip
+    else:
+        scene.add_frame("/preview/warnings/steps", show_axes=False)
+    if len(waypoints):
+        scene.add_point_cloud(
+            "/preview/warnings/waypoints", np.asarray(waypoints, np.float32),
+            colors=WARNING_COLOR, point_size=0.07, point_shape="circle",
+        )  # fmt: skip
+    else:
+        scene.add_frame("/preview/warnings/waypoints", show_axes=False)
+
+
 def draw_step_markers(
     scene: viser.SceneApi, name: str, soles: Sequence[Sole], length: float, width: float,
     color: tuple[int, int, int], opacity: float, lift: float,

@@ -24,9 +24,15 @@ def walk_state(snap: Snapshot) -> str:
 class StatusLine:
     """Writes the status markdown; :meth:`show` is called by the render thread."""
 
-    def __init__(self, handle: viser.GuiMarkdownHandle, name: Callable[[], str]) -> None:
+    def __init__(
+        self,
+        handle: viser.GuiMarkdownHandle,
+        name: Callable[[], str],
+        extra: Callable[[], str] | None = None,
+    ) -> None:
         self.handle = handle
         self.name = name  # the current preset's name
+        self.extra = extra  # further lines (feasibility warnings, what a click pushes)
         self._note_seq = 0
         self._note_since = -float("inf")
 
@@ -48,11 +54,15 @@ class StatusLine:
             else ""
         )
         note = self.note(snap, now)
+        extra = self.extra() if self.extra is not None else ""
         return (
             f"**{self.name()}** · {snap.robot} · {snap.backend}  \n"
             f"t = {snap.t:6.2f} s · {speed}falls {snap.falls} · {walk_state(snap)}"
             + (f"  \nlast change: *{note}*" if note else "")
+            + (f"  \n{extra}" if extra else "")
         )
 
     def show(self, snap: Snapshot, fps: float, now: float) -> None:
-        self.handle.content = self.text(snap, fps, now)
+        text = self.text(snap, fps, now)
+        if self.handle.content != text:
+            self.handle.content = text

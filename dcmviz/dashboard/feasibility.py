@@ -1,0 +1,90 @@
+"""What the robot cannot do in a plan, shown: a markdown block in the Plan tab, a compact line for
+the status, and the likely cause of a fall.
+
+The warnings come from :func:`dcmviz.gait.check_plan` (pure, about a millisecond); the plan view
+marks the offending footsteps and waypoints in the 3-D scene (:func:`scene.draw_warnings`).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Sequence
+
+import viser
+
+from dcmviz.config import Config
+from dcmviz.gait import GaitPlan, PlanWarning, check_plan
+from dcmviz.robots import get_spec
+
+SHOWN_WARNINGS = 6  # the panel lists this many, then "and n more"
+
+
+def plan_warnings(plan: GaitPlan, config: Config) -> tuple[PlanWarning, ...]:
+    """check_plan for ``config``'s robot; never raises (a checker bug is not the user's error)."""
+    try:
+        return tuple(check_plan(plan, get_spec(config.robot.model), config))
+    except Exception as err:  # noqa: BLE001
+        return (PlanWarning(f"feasibility check failed: {err!r}"),)
+
+
+def warnings_markdown(warnings: Sequence[PlanWarning], source: str) -> str:
+    """The Plan tab's block: every warning (the first few), or that the plan is feasible."""
+    if not warnings:
+        return (
+            f"<small>✅ Feasible ({source}): every footstep and VRP waypoint within reach.</small>"
+        )
+    lines = [f"**⚠ {len(warnings)} feasibility warning{'s' * (len(warnings) > 1)}** ({source}):"]
+    lines += [f"- {w.message}" for w in warnings[:SHOWN_WARNINGS]]
+    if len(warnings) > SHOWN_WARNINGS:
+        lines.append(f"- … and {len(warnings) - SHOWN_WARNINGS} more")
+    lines.append("<small>Marked red in the scene: offending footsteps and waypoints.</small>")
+    return "\n".join(lines)
+
+
+def compact(warnings: Sequence[PlanWarning]) -> str:
+    """One line for the status: how many, and the settings to change."""
+    if not warnings:
+        return ""
+    settings = sorted({w.setting for w in warnings if w.setting})
+    what = f" ({', '.join(settings)})" if settings else ""
+    return f"⚠ {len(warnings)} feasibility warning{'s' * (len(warnings) > 1)}{what}"
+
+
+def likely_cause(warnings: Sequence[PlanWarning], config: Config, pushed: bool = False) -> str:
+    """Why the robot probably fell or the walk failed, from the plan's warnings and the config."""
+    if warnings:
+        first = warnings[0].message
+        more = f" (and {len(warnings) - 1} more warnings)" if len(warnings) > 1 else ""
+        return f"likely cause: {first}{more}"
+    spec = get_spec(config.robot.model)
+    gait = config.gait
+    if abs(gait.step_length) >= 0.9 * spec.max_step_length_m:
+        return (
+            f"likely cause: step length {gait.step_length} m at the reach limit "
+            f"({spec.max_step_length_m} m)"
+        )
+    if pushed:
+        return "likely cause: the push (try a smaller |F| or a shorter T_push)"
+    if not config.control.step_adjustment:
+        return "likely cause: step adjustment is off (the DCM error grows unchecked)"
+    return "no feasibility warning for this plan"
+
+
+class FeasibilityPanel:
+    """The Plan tab's warning block; remembers the latest warnings for the status and faults."""
+
+    def __init__(self, gui: viser.GuiApi) -> None:
+        self.gui_warnings = gui.add_markdown("")
+        self.warnings: tuple[PlanWarning, ...] = ()
+        self.source = ""
+        self._lock = threading.Lock()
+
+    def show(self, warnings: Sequence[PlanWarning], source: str) -> None:
+        text = warnings_markdown(warnings, source)
+        with self._lock:
+            self.warnings, self.source = tuple(warnings), source
+            if self.gui_warnings.content != text:
+                self.gui_warnings.content = text
+
+    def compact(self) -> str:
+        return compact(self.warnings)
