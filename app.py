@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import sys
 import time
 from pathlib import Path
@@ -11,6 +12,16 @@ from dcmviz.config import Config, ConfigError, load_preset
 
 ROOT = Path(__file__).resolve().parent
 DEFAULT_PRESET = ROOT / "presets" / "walk_forward.toml"
+
+
+def is_loopback(host: str) -> bool:
+    """True for an address only this machine can reach (127.0.0.0/8, ::1, localhost)."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -47,8 +58,16 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as err:
         print(f"app.py: cannot listen on {args.host}:{args.port}: {err}", file=sys.stderr)
         return 2
-    shown = "localhost" if args.host in ("127.0.0.1", "::1") else args.host
+    shown = "localhost" if is_loopback(args.host) else args.host
     print(f"dcmviz dashboard: http://{shown}:{server.get_port()}  (Ctrl-C to stop)", flush=True)
+    if not is_loopback(args.host):
+        print(
+            f"WARNING: listening on {args.host}, beyond this machine. Anyone who can reach "
+            f"port {server.get_port()} can control the simulation (change every setting, push "
+            "the robot, upload presets) for everyone watching; there is no login. Use the "
+            "default --host 127.0.0.1 unless you trust that network.",
+            flush=True,
+        )
     try:
         while True:
             time.sleep(1.0)

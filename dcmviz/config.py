@@ -1,4 +1,4 @@
-"""Preset schema (DESIGN.md), TOML load/save and validation.
+"""Preset schema (docs/presets.md), TOML load/save and validation.
 
 A :class:`Config` is immutable and validated as a whole; every entry point (dashboard, runner,
 sweep, tests) goes through :func:`load_preset` / :func:`config_from_dict`.  Errors name the key,
@@ -24,6 +24,7 @@ from dcmviz.robots import ROBOT_NAMES, get_spec
 from dcmviz.robots.reach import check_reachable
 
 MAX_PRESET_BYTES = 64 * 1024  # presets are small; larger uploads are refused
+PRESETS_DOC = "docs/presets.md"  # the preset schema, for users (errors point there)
 
 
 class ConfigError(ValueError):
@@ -243,7 +244,7 @@ def _format_error(err: ValidationError) -> str:
         if e["type"] == "extra_forbidden":
             lines.append(
                 f"{key}: unknown key (value {shown}); check the spelling against the "
-                "preset schema in DESIGN.md"
+                f"preset schema in {PRESETS_DOC}"
             )
         else:
             lines.append(f"{key} = {shown}: {msg}")
@@ -276,7 +277,7 @@ def loads_preset(text: str) -> Config:
 
 
 def load_preset(path: str | Path) -> Config:
-    """Load and validate a preset file (DESIGN.md schema)."""
+    """Load and validate a preset file (schema: docs/presets.md)."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")

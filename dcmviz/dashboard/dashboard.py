@@ -25,7 +25,7 @@ from pathlib import Path
 import viser
 
 from dcmviz import GRAVITY
-from dcmviz.config import Config
+from dcmviz.config import MAX_PRESET_BYTES, PRESETS_DOC, Config
 from dcmviz.dashboard import scene
 from dcmviz.dashboard.editor import CURRENT, ConfigEditor
 from dcmviz.dashboard.feasibility import FeasibilityPanel, likely_cause
@@ -79,7 +79,10 @@ class Dashboard:
     ) -> None:
         self.server = server
         self.notifier = Notifier(server)
-        install_guard(server, notify=self.notifier.notify_client_id)
+        install_guard(
+            server, notify=self.notifier.notify_client_id, max_upload_bytes=MAX_PRESET_BYTES,
+            upload_doc=PRESETS_DOC,
+        )  # fmt: skip
         self.loop = SimLoop(session_factory, config, on_event=self._on_sim_event)
         self.editor = ConfigEditor(config, self.loop, self.notifier)
         scene.draw_ground(server)

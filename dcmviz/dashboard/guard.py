@@ -79,10 +79,29 @@ def clean_value(handle: Any, value: Any) -> Any:
     raise Rejected(f"{name}: this control does not take values from the browser")
 
 
-def install_guard(server: viser.ViserServer, notify: Notify | None = None) -> None:
-    """Filter every incoming GUI update of ``server`` through :func:`clean_value`.
+def changed_in_meaning(sent: Any, stored: Any) -> bool:
+    """The stored value is not what the client meant: clamped into the range (beyond rounding)
+    or another kind of value.  80 → 80.0 and a slider's 0.30000000000000004 → 0.3 are not."""
+    if isinstance(stored, bool) or not isinstance(stored, numbers.Real):
+        return sent != stored
+    if isinstance(sent, bool) or not isinstance(sent, numbers.Real):
+        return True
+    return abs(float(sent) - float(stored)) > 1e-9 * max(1.0, abs(float(stored)))
 
-    ``notify(client_id, title, body)`` tells the sender why a value was refused or changed.
+
+def install_guard(
+    server: viser.ViserServer,
+    notify: Notify | None = None,
+    *,
+    max_upload_bytes: int | None = None,
+    upload_doc: str = "",
+) -> None:
+    """Filter every incoming GUI update of ``server`` through :func:`clean_value`, and refuse an
+    upload larger than ``max_upload_bytes`` (or empty) from the size its first message declares,
+    before any of it is stored.
+
+    ``notify(client_id, title, body)`` tells the sender why a value was refused or changed;
+    ``upload_doc`` names the documentation an upload refusal points to.
     """
     gui = server.gui
     ws = server._websock_server
@@ -110,7 +129,7 @@ def install_guard(server: viser.ViserServer, notify: Notify | None = None) -> No
             if notify is not None:
                 notify(client_id, "Message refused", f"malformed GUI message: {err!r}"[:300])
             return
-        changed = value != updates["value"] or type(value) is not type(updates["value"])
+        changed = changed_in_meaning(updates["value"], value)
         message.updates = {"value": value}
         await original(client_id, message)
         if changed:  # the sender still shows what it typed: send everyone the stored value
@@ -120,3 +139,57 @@ def install_guard(server: viser.ViserServer, notify: Notify | None = None) -> No
 
     ws.unregister_handler(_messages.GuiUpdateMessage, original)
     ws.register_handler(_messages.GuiUpdateMessage, guarded)
+    if max_upload_bytes is not None:
+        _guard_uploads(server, notify, max_upload_bytes, upload_doc)
+
+
+def _guard_uploads(
+    server: viser.ViserServer, notify: Notify | None, max_bytes: int, doc: str
+) -> None:
+    """viser buffers an upload's parts from ``FileTransferStartUpload`` on; refuse it there, by
+    its declared size, and drop a transfer whose parts outgrow what it declared."""
+    gui = server.gui
+    ws = server._websock_server
+    start, part = gui._handle_file_transfer_start, gui._handle_file_transfer_part
+    states = gui._current_file_upload_states
+    see = f" (see {doc})" if doc else ""
+
+    def refuse(client_id: int, message: Any, why: str) -> None:
+        # an ack for the whole file ends the browser's progress bar; nothing was stored
+        ws.queue_message(
+            _messages.FileTransferPartAck(
+                source_component_uuid=message.source_component_uuid,
+                transfer_uuid=message.transfer_uuid,
+                transferred_bytes=int(max(message.size_bytes, 0)),
+                total_bytes=int(max(message.size_bytes, 0)),
+            )
+        )
+        if notify is not None:
+            notify(client_id, "Upload refused", f"{str(message.filename)[:100]}: {why}{see}")
+
+    def guarded_start(client_id: int, message: Any) -> None:
+        size = message.size_bytes
+        if not isinstance(size, int) or isinstance(size, bool) or size < 0:
+            return refuse(client_id, message, "no valid file size")
+        if size == 0:
+            return refuse(client_id, message, "the file is empty")
+        if size > max_bytes:
+            return refuse(
+                client_id, message, f"{size} bytes; a preset is at most {max_bytes} bytes"
+            )
+        return start(client_id, message)
+
+    def guarded_part(client_id: int, message: Any) -> None:
+        state = states.get(message.transfer_uuid)
+        if state is not None and (
+            state["client_id"] != client_id
+            or state["transferred_bytes"] + len(message.content) > state["total_bytes"]
+        ):
+            states.pop(message.transfer_uuid, None)  # lies about its size: forget it
+            return None
+        return part(client_id, message)
+
+    ws.unregister_handler(_messages.FileTransferStartUpload, start)
+    ws.register_handler(_messages.FileTransferStartUpload, guarded_start)
+    ws.unregister_handler(_messages.FileTransferPart, part)
+    ws.register_handler(_messages.FileTransferPart, guarded_part)

@@ -67,6 +67,11 @@ class Snapshot:
     step_time_s: float = 0.0  # mean wall time of one control tick
 
 
+def _finite(*arrays: Any) -> bool:
+    """Every value of the given arrays is finite (None counts as finite)."""
+    return all(a is None or bool(np.isfinite(a).all()) for a in arrays)
+
+
 def _arr(x: Any) -> np.ndarray | None:
     return None if x is None else np.array(x, dtype=float)
 
@@ -89,6 +94,7 @@ class SimLoop:
         self.playing = True
         self.speed = 1.0
         self.falls = 0
+        self.faults = 0  # ticks that raised or left a non-finite state (each resets the walk)
         self.resets = 0  # reset commands handled (tests and the status line watch it)
         self.version = 0
         self.note = ""  # what the last config change did ("gains changed (walk continues)", …)
@@ -167,9 +173,15 @@ class SimLoop:
             while self.session.t < target and time.perf_counter() < frame_end:
                 t_step = time.perf_counter()
                 try:
-                    self.session.step()
+                    command = self.session.step()
+                    if not _finite(command.v_cmd, command.xi, self.session.last_state.com):
+                        raise FloatingPointError("the state is not finite (NaN or inf)")
                 except Exception as err:  # noqa: BLE001 - a crash in physics must not kill the UI
-                    self.on_event("error", f"simulation error at t = {self.session.t:.2f} s: {err}")
+                    self.faults += 1
+                    self.on_event(
+                        "error",
+                        f"Simulation fault at t = {self.session.t:.2f} s ({err}); the walk restarts.",
+                    )
                     self.session.reset()
                     break
                 self._step_times.append(time.perf_counter() - t_step)

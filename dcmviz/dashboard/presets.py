@@ -8,6 +8,7 @@ import viser
 
 from dcmviz.config import (
     MAX_PRESET_BYTES,
+    PRESETS_DOC,
     Config,
     ConfigError,
     dumps_preset,
@@ -44,18 +45,23 @@ class PresetPanel:
                 "preset", names, initial_value=initial if initial in names else CURRENT
             )
             self.gui_preset.on_update(
-                lambda event: self.on_preset_selected(event.target.value, event.client)
+                notifier.guarded(
+                    "preset",
+                    lambda event: self.on_preset_selected(event.target.value, event.client),
+                )
             )
             self.gui_upload = gui.add_upload_button(
                 "Upload preset (.toml)", icon=viser.Icon.UPLOAD, mime_type=".toml,text/plain"
             )
             self.gui_upload.on_upload(
-                lambda event: self.on_upload(
+                notifier.guarded("Upload preset", lambda event: self.on_upload(
                     event.target.value.name, event.target.value.content, event.client
-                )
-            )
+                ))
+            )  # fmt: skip
             self.gui_export = gui.add_button("Export preset", icon=viser.Icon.DOWNLOAD)
-            self.gui_export.on_click(lambda event: self.on_export(event.client))
+            self.gui_export.on_click(
+                notifier.guarded("Export preset", lambda event: self.on_export(event.client))
+            )
             self.gui_description = gui.add_markdown("")
         self.show(editor.config, self.gui_preset.value)
         editor.on_applied(self.show)
@@ -78,29 +84,39 @@ class PresetPanel:
         try:
             config = load_preset(self.presets_dir / f"{name}.toml")
         except ConfigError as err:
-            self.notifier.notify(client, "Preset not loaded", str(err), error=True)
+            self.notifier.notify(
+                client, "Preset not loaded", f"{err} (preset schema: {PRESETS_DOC})", error=True
+            )
             self.gui_preset.value = CURRENT
             return False
         return self.editor.apply_config(config, client, preset=name)
 
     def on_upload(self, filename: str, content: bytes, client: viser.ClientHandle | None) -> bool:
-        """An uploaded TOML preset: size-limited, validated, adopted or refused with a reason."""
-        if len(content) > MAX_PRESET_BYTES:
-            self.notifier.notify(
-                client, "Preset refused",
-                f"{filename}: {len(content)} bytes; at most {MAX_PRESET_BYTES} allowed",
-                error=True,
-            )  # fmt: skip
+        """An uploaded TOML preset: size-limited, validated, adopted or refused with a reason.
+
+        (The guard already refused an upload whose declared size is too large or zero before
+        viser stored any of it; this is the check of what arrived.)"""
+        see = f" (preset schema: {PRESETS_DOC})"
+        why = ""
+        if not content.strip():
+            why = "the file is empty; a preset needs at least its [gait] or [dcm] settings"
+        elif len(content) > MAX_PRESET_BYTES:
+            why = f"{len(content)} bytes; a preset is at most {MAX_PRESET_BYTES} bytes"
+        if why:
+            self.notifier.notify(client, "Preset refused", f"{filename}: {why}{see}", error=True)
             return False
         try:
             config = loads_preset(content.decode("utf-8"))
         except UnicodeDecodeError:
             self.notifier.notify(
-                client, "Preset refused", f"{filename}: not UTF-8 text", error=True
+                client, "Preset refused", f"{filename}: not UTF-8 text{see}", error=True
             )
             return False
         except ConfigError as err:
-            self.notifier.notify(client, "Preset refused", f"{filename}: {err}", error=True)
+            text = str(err)
+            if PRESETS_DOC not in text:
+                text += see
+            self.notifier.notify(client, "Preset refused", f"{filename}: {text}", error=True)
             return False
         ok = self.editor.apply_config(config, client)
         if ok:
