@@ -281,6 +281,11 @@ def test_presets_dropdown_upload_and_export(dash: Dashboard) -> None:
     assert not dash.preset_panel.on_upload("junk.toml", b"\xff\xfe not text", None)
     assert dash.config is before
     assert "t_ss" in dash.notifications[-2][1]
+    assert not dash.preset_panel.on_upload("empty.toml", b"", None)  # not "all defaults"
+    assert not dash.preset_panel.on_upload("blank.toml", b"\n  \n", None)
+    assert dash.config is before and "empty" in dash.notifications[-1][1]
+    for title, body in list(dash.notifications)[-6:]:
+        assert title != "Preset refused" or "docs/presets.md" in body  # users have that file
 
     exported = dash.preset_panel.on_export(None)
     assert loads_preset(exported.decode()) == dash.config
@@ -520,3 +525,25 @@ def test_robot_view_moves_only_what_moved() -> None:
         assert view.update(bent) == 0  # the same pose again: nothing is sent
     finally:
         server.stop()
+
+
+def test_app_warns_when_listening_beyond_loopback() -> None:
+    import subprocess
+    import sys
+
+    app = Path(__file__).resolve().parents[1] / "app.py"
+    port = free_port()
+    proc = subprocess.Popen(
+        [sys.executable, str(app), "--host", "0.0.0.0", "--port", str(port)],
+        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+    )  # fmt: skip
+    try:
+        line = ""
+        deadline = time.time() + 60
+        while "dcmviz dashboard:" not in line and time.time() < deadline:
+            line = proc.stdout.readline()
+        warning = proc.stdout.readline()
+        assert "Anyone who can reach" in warning and "can control the simulation" in warning
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)

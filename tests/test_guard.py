@@ -185,3 +185,67 @@ def test_clean_value_per_control_kind(served) -> None:
     observer = d.controls.handles[("control", "observer")]
     with pytest.raises(Rejected, match="true or false"):
         clean_value(observer, 1)
+
+
+def test_representation_is_not_a_change_but_a_clamp_is(served) -> None:
+    """80 for a float slider is 80.0 and a dragged 3.1000000000000005 is 3.1: stored quietly;
+    a value beyond the range is clamped and the sender is told."""
+    server, d = served
+    port = server.get_port()
+    magnitude = d.push_panel.gui_push_magnitude
+    k = d.controls.handles[("control", "k_xi")]
+    before = len(d.notifications)
+    tab(port, [update(uuid_of(magnitude), {"value": 80}), update(uuid_of(k), {"value": 3.1 + 4e-16})],
+        listen_s=0.3)  # fmt: skip
+    assert wait_for(lambda: magnitude.value == 80.0 and d.config.control.k_xi == pytest.approx(3.1))
+    assert isinstance(magnitude.value, float)
+    assert not any(title == "Value changed" for title, _ in list(d.notifications)[before:])
+    tab(port, [update(uuid_of(magnitude), {"value": 5000.0})], listen_s=0.3)
+    assert wait_for(lambda: d.notifications and d.notifications[-1][0] == "Value changed")
+    assert magnitude.value == magnitude.max and str(magnitude.max) in d.notifications[-1][1]
+
+
+def upload_start(button, size: int, parts: int = 1, name: str = "big.toml") -> bytes:
+    return msgspec.msgpack.encode(
+        {
+            "type": "FileTransferStartUpload", "source_component_uuid": uuid_of(button),
+            "transfer_uuid": f"t-{size}", "filename": name, "mime_type": "text/plain",
+            "part_count": parts, "size_bytes": size,
+        }
+    )  # fmt: skip
+
+
+def upload_part(button, size: int, index: int, content: bytes) -> bytes:
+    return msgspec.msgpack.encode(
+        {
+            "type": "FileTransferPart", "source_component_uuid": uuid_of(button),
+            "transfer_uuid": f"t-{size}", "part_index": index, "content": content,
+        }
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("size", [5 * 1024 * 1024, 0])
+def test_uploads_refused_by_size_before_they_are_read(served, size) -> None:
+    """A 5 MB upload is refused from its first message (viser stores none of its parts); an
+    empty one too; the refusal points to the preset documentation in the repository."""
+    server, d = served
+    button = d.preset_panel.gui_upload
+    before = d.config
+    frames = [upload_start(button, size, parts=max(1, size // 1_000_000))]
+    frames += [upload_part(button, size, 0, b"#" * 1_000_000)] if size else []
+    tab(server.get_port(), frames, listen_s=0.3)
+    assert wait_for(lambda: d.notifications and d.notifications[-1][0] == "Upload refused")
+    body = d.notifications[-1][1]
+    assert ("empty" in body if size == 0 else str(size) in body) and "docs/presets.md" in body
+    assert server.gui._current_file_upload_states == {}  # nothing buffered
+    assert d.config is before
+
+
+def test_upload_that_outgrows_its_declared_size_is_dropped(served) -> None:
+    server, d = served
+    button = d.preset_panel.gui_upload
+    frames = [upload_start(button, 100, parts=2), upload_part(button, 100, 0, b"#" * 90),
+              upload_part(button, 100, 1, b"#" * 50_000)]  # fmt: skip
+    tab(server.get_port(), frames, listen_s=0.3)
+    assert wait_for(lambda: server.gui._current_file_upload_states == {})
+    assert not any(title == "Preset loaded" for title, _ in d.notifications)
