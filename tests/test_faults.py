@@ -270,3 +270,24 @@ def test_faults_leave_memory_where_it_was(running) -> None:
         still_working(d, port, tab_)
     finally:
         tab_.close()
+
+
+def test_the_first_viewer_sees_the_walk_from_its_start() -> None:
+    """Issue 14, the first minute: a plan-mode walk restarts when the first tab connects (not a
+    walk that ended before the page opened); a second tab changes nothing."""
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    d = Dashboard(server, Config().replace(sim={"backend": "lip"}))
+    try:
+        assert wait_for(lambda: d.loop.session.t > 1.0)
+        first = Tab(server.get_port())
+        assert wait_for(lambda: d.loop.resets == 1)
+        assert d.loop.session.t < 1.0
+        assert wait_for(lambda: d.loop.session.t > 1.0)
+        second = Tab(server.get_port())
+        assert wait_for(lambda: len(server.get_clients()) == 2)
+        assert d.loop.resets == 1 and d.loop.session.t > 1.0
+        first.close()
+        second.close()
+    finally:
+        d.stop()
+        server.stop()

@@ -159,7 +159,7 @@ class Dashboard:
         self.controls.extra["dz_vrp"].content = dz_vrp_text(config)
 
     def show_push_hint(self, hint: str) -> None:
-        self.gui_push_hint.content = f"<small>👆 **{hint}**</small>"
+        self.gui_push_hint.content = f"<small>**Push:** {hint}</small>"
 
     def status_extra(self) -> str:
         """Status lines after the walk state: the plan's feasibility, what a click pushes."""

@@ -30,10 +30,11 @@ def plan_warnings(plan: GaitPlan, config: Config) -> tuple[PlanWarning, ...]:
 def warnings_markdown(warnings: Sequence[PlanWarning], source: str) -> str:
     """The Plan tab's block: every warning (the first few), or that the plan is feasible."""
     if not warnings:
-        return (
-            f"<small>✅ Feasible ({source}): every footstep and VRP waypoint within reach.</small>"
-        )
-    lines = [f"**⚠ {len(warnings)} feasibility warning{'s' * (len(warnings) > 1)}** ({source}):"]
+        return f"<small>Feasible ({source}): every footstep and VRP waypoint within reach.</small>"
+    n = len(warnings)
+    lines = [
+        f"<span style='color:#e61414'>**{n} feasibility warning{'s' * (n > 1)}**</span> ({source}):"
+    ]
     lines += [f"- {w.message}" for w in warnings[:SHOWN_WARNINGS]]
     if len(warnings) > SHOWN_WARNINGS:
         lines.append(f"- … and {len(warnings) - SHOWN_WARNINGS} more")
@@ -47,7 +48,8 @@ def compact(warnings: Sequence[PlanWarning]) -> str:
         return ""
     settings = sorted({w.setting for w in warnings if w.setting})
     what = f" ({', '.join(settings)})" if settings else ""
-    return f"⚠ {len(warnings)} feasibility warning{'s' * (len(warnings) > 1)}{what}"
+    n = len(warnings)
+    return f"<span style='color:#e61414'>{n} feasibility warning{'s' * (n > 1)}</span>{what}"
 
 
 def likely_cause(warnings: Sequence[PlanWarning], config: Config, pushed: bool = False) -> str:

@@ -134,9 +134,10 @@ class PushPanel:
         return ok
 
     def status(self) -> str:
-        """The last click's push for a few seconds, else what a click will do."""
+        """The last click's push for a few seconds ('' otherwise: the Plan tab says what a click
+        will do)."""
         t, text = self.last_push
-        return text if time.monotonic() - t < LAST_PUSH_SHOW_S else self.hint()
+        return text if time.monotonic() - t < LAST_PUSH_SHOW_S else ""
 
     def push(
         self, force: tuple[float, float, float], body: str, client: viser.ClientHandle | None

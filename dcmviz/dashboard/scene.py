@@ -97,7 +97,7 @@ def draw_preview(scene: viser.SceneApi, data: PreviewData) -> None:
     )
     scene.add_spline_catmull_rom(
         "/preview/dcm",
-        data.dcm[:: max(1, len(data.dcm) // 400)],
+        data.dcm[:: max(1, len(data.dcm) // 400)].astype(np.float32),
         color=DCM_COLOR,
         thickness=3.0,
         thickness_units="screen",
@@ -106,7 +106,8 @@ def draw_preview(scene: viser.SceneApi, data: PreviewData) -> None:
     ground = data.dcm.copy()
     ground[:, 2] = data.soles[0].position[2] + 0.003 if data.soles else 0.003
     scene.add_spline_catmull_rom(
-        "/preview/dcm_ground", ground[:: max(1, len(ground) // 400)], color=(150, 160, 220),
+        "/preview/dcm_ground", ground[:: max(1, len(ground) // 400)].astype(np.float32),
+        color=(150, 160, 220),
         thickness=2.0, thickness_units="screen",
     )  # fmt: skip
 
@@ -160,7 +161,7 @@ SCENE_LEGEND = (
 
 
 def draw_ground(server: viser.ViserServer) -> None:
-    """Floor grid, lights and the initial camera (front right of the start position)."""
+    """Floor grid, lights and the initial camera (in front of the walk)."""
     scene = server.scene
     scene.set_up_direction("+z")
     scene.add_grid(
@@ -168,8 +169,13 @@ def draw_ground(server: viser.ViserServer) -> None:
         plane="xy", position=(0.0, 0.0, -0.001), cell_color=(220, 220, 220),
         section_color=(170, 170, 170), infinite_grid=True, fade_distance=30.0,
     )  # fmt: skip
-    scene.add_light_hemisphere("/light/sky", intensity=0.8)
-    scene.add_light_directional("/light/sun", intensity=1.5, position=(2.0, -3.0, 5.0))
+    # no HDR environment map: while a browser decodes one (seconds in software WebGL) viser
+    # draws the whole scene at 5 % opacity, so a newcomer would first see a washed-out robot
+    scene.configure_environment_map(hdri=None)
+    scene.add_light_hemisphere("/light/sky", intensity=1.6)
+    scene.add_light_directional("/light/sun", intensity=2.2, position=(4.0, 2.0, 5.0))
     camera = server.initial_camera
-    camera.position = (3.1, -2.4, 1.6)
-    camera.look_at = (1.05, 0.3, 0.5)
+    # in front of the walk, slightly to its left: the robot walks towards the viewer through
+    # the middle of the view, between the plot panel (left) and the control panel (right)
+    camera.position = (4.6, 1.5, 1.7)
+    camera.look_at = (0.9, 0.0, 0.55)
