@@ -136,6 +136,13 @@ class ControlSection(_Section):
         ge=0.0,
         le=1.0,
     )
+    recovery: Literal["next_step", "multi_step"] = _field(
+        "next_step",
+        description=(
+            "next_step: the paper's adjustment of the next footstep (eqs. 27–35); multi_step: "
+            "the next three footsteps share the DCM error through one QP on the same maps"
+        ),
+    )
     observer: bool = _field(True, description="momentum-based disturbance observer, eqs. 42–49")
     k_f: float = _field(
         10.0, symbol="k_F", unit="1/s", description="observer gain", gt=0.0, le=200.0

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dcmviz import GRAVITY
+from dcmviz import GRAVITY, recovery
 from dcmviz.config import Config, ControlSection
 from dcmviz.dcm import (
     DisturbanceObserver,
@@ -45,9 +45,11 @@ from dcmviz.gait import (
     plan_footsteps,
     timing_of,
 )
+from dcmviz.recovery import Candidate
 from dcmviz.robots import get_spec
 from dcmviz.state import SIDES, FootTarget, MeasuredState, WalkerCommand
 
+MULTI_STEPS = 3  # footsteps sharing the DCM error with recovery = "multi_step"
 HORIZON_STEPS = 4  # continuous mode: at least this many footsteps previewed ahead
 HORIZON_TIME_CONSTANTS = 15.0  # ... and at least 15 b of walking before the terminal constraint
 
@@ -62,6 +64,8 @@ def horizon_count(gait, b: float) -> int:
     """
     per_step = gait.t_ss + gait.t_ds
     return max(HORIZON_STEPS, math.ceil(HORIZON_TIME_CONSTANTS * b / per_step))
+
+
 E_Z = np.array([0.0, 0.0, 1.0])
 
 
@@ -231,6 +235,8 @@ class Walker:
         k = plan.next_modifiable_step(t)
         if k is None:
             return np.zeros(3)
+        if self.control.recovery == "multi_step":
+            return self._adjust_multi(t, local, k, xi_error)
         target = self._target(k, xi_error, plan.stance_for(k))
         if self.swing_step == k:
             if self.swing.frozen(t):
@@ -251,6 +257,40 @@ class Walker:
             delta = delta + dcm_adjustment(preview, local, plan.selection(k2), dv2)
             self.recovery_target = (k2, target2)
         return delta
+
+    def _adjust_multi(self, t: float, local: float, k: int, xi_error: np.ndarray) -> np.ndarray:
+        """Δξ_adj with the next MULTI_STEPS footsteps sharing ξ̃ through one QP (dcmviz.recovery)."""
+        plan, preview = self.plan, self.plan.preview
+        candidates = []
+        for j in range(k, min(k + MULTI_STEPS, len(plan.steps))):
+            fixed = None
+            if j == k and self.swing_step == k and self.swing.frozen(t):
+                fixed = self.swing.target[:2] - plan.steps[k].position[:2]
+            candidates.append(
+                Candidate(plan.steps[j], 1.0 / self._gain(j), self._instant(j) - t, fixed)
+            )
+        dvs = recovery.solve(
+            candidates, plan.stance_for(k), xi_error, self.spec,
+            self.control.max_step_adjustment, self.b,
+        )  # fmt: skip
+        delta = np.zeros(3)
+        for j, dv in enumerate(dvs, start=k):
+            delta = delta + dcm_adjustment(preview, local, plan.selection(j), dv)
+        target = plan.steps[k].position + dvs[0]
+        if self.swing_step == k and candidates[0].fixed is None:
+            self.swing = self.swing.retarget(t, target)
+        self.adjusted_target = (k, target)
+        if len(dvs) > 1:
+            self.recovery_target = (k + 1, plan.steps[k + 1].position + dvs[1])
+        return delta
+
+    def _instant(self, k: int) -> float:
+        """Global time of footstep k's adjustment instant (eq. 31): the start of its first
+        affected phase, or the end of the plan for the closing step."""
+        plan = self.plan
+        if plan.is_closing_step(k):
+            return plan.t_end
+        return plan.phase_start(plan.first_affected_phase(k))
 
     def _gain(self, k: int) -> float:
         """A_adj of footstep k (eq. 32) as a scalar.

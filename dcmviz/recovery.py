@@ -1,0 +1,157 @@
+"""Multi-step adjustment: the paper's linear maps, several footsteps, one small QP (issue 11).
+
+The paper adjusts the next footstep only (eqs. 27–35) and names the general case future work
+("each element of this VRP adjustment vector could be used independently … formulated as an
+optimization problem").  Here the next ``n`` modifiable footsteps j = k, k+1, … each get their
+own horizontal Δv_j, and every footstep's leverage is the paper's own: moving footstep j by Δv_j
+moves the DCM reference at j's adjustment instant (the start of its first affected phase, or the
+end of the plan for the closing step) by c_j Δv_j, with c_j = 3row(A_ξref,0, φ_fa,j) S_adj,j
+(eq. 28; c_j = 1/A_adj,j of eq. 32).  The DCM error ξ̃ (assumed to persist, eq. 31) is shared out
+by
+
+    minimise   Σ_j ω_j |Δv_j|²  +  ρ |ξ̃ − Σ_j c_j Δv_j|²
+    subject to every footstep inside the reach of the one before it (adjusted), in that foot's
+               frame (|Δx| ≤ max length, min width ≤ lateral ≤ max width), and |Δv_j| ≤ the
+               adjustment limit (per axis),
+
+with ω_j = exp((t_j − t_k)/b) growing with how much later than the next footstep's instant t_k
+footstep j's instant t_j lies (a near footstep is cheap to move, a far one is kept near its
+plan), and ρ large (the condition
+of eq. 31 holds whenever the constraints allow it).  A footstep whose swing is frozen is a
+constant, not a variable.  The solution is continuous in ξ̃ and in time (a strictly convex QP
+with continuous data), and by the principle of optimality the remaining footsteps' optimum does
+not change when one of them is frozen or committed at its touchdown: the adapted reference
+ξ_adj = ξ_ref + Σ_j (w(t)·s_j) Δv_j (eqs. 33–35) stays smooth.  With the constraints inactive
+the solution is the weighted least-squares one, which the tests check against a dense solve of
+eq. (28).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import daqp
+import numpy as np
+
+from dcmviz.robots import RobotSpec
+from dcmviz.state import SIDE_SIGN, Footstep
+
+CONDITION_WEIGHT = 1e4  # ρ: how strongly Σ c_j Δv_j = ξ̃ (eq. 31) is asked for
+_INF = 1e30
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One footstep the QP may move."""
+
+    nominal: Footstep  # where the plan has it
+    leverage: float  # c_j = 1/A_adj,j: DCM reference change at its instant per metre moved
+    lead_time_s: float  # t_j − t: how far in the future its adjustment instant lies
+    fixed: np.ndarray | None = None  # (2,) Δv of a frozen footstep (not a variable)
+
+
+def weights(candidates: list[Candidate], b: float) -> np.ndarray:
+    """ω_j = exp((t_j − t_0)/b): 1 for the next footstep, growing with how much later footstep
+    j's adjustment instant t_j comes."""
+    t0 = candidates[0].lead_time_s
+    return np.array([math.exp(max(c.lead_time_s - t0, 0.0) / b) for c in candidates])
+
+
+def solve(
+    candidates: list[Candidate],
+    stance: Footstep,
+    xi_error: np.ndarray,
+    spec: RobotSpec,
+    max_adjustment: float,
+    b: float,
+    *,
+    constrained: bool = True,
+) -> list[np.ndarray]:
+    """Δv_j (each (3,), z = 0) for the candidates, in order; ``stance`` is where the foot stands
+    that candidate 0 steps from."""
+    free = [i for i, c in enumerate(candidates) if c.fixed is None]
+    col = {i: 2 * j for j, i in enumerate(free)}
+    nx = 2 * len(free)
+    e = np.asarray(xi_error, dtype=float)[:2].copy()
+    for c in candidates:
+        if c.fixed is not None:
+            e -= c.leverage * c.fixed
+    if nx == 0:
+        return [np.array([*c.fixed, 0.0]) for c in candidates]
+    omega = weights(candidates, b)
+    lev = np.zeros((2, nx))  # Σ c_j Δv_j as a 2 × nx map
+    H = np.zeros((nx, nx))
+    for i in free:
+        j = col[i]
+        H[j : j + 2, j : j + 2] += 2.0 * omega[i] * np.eye(2)
+        lev[:, j : j + 2] = candidates[i].leverage * np.eye(2)
+    H += 2.0 * CONDITION_WEIGHT * lev.T @ lev
+    f = -2.0 * CONDITION_WEIGHT * lev.T @ e
+    lo = np.full(nx, -max_adjustment)
+    up = np.full(nx, max_adjustment)
+    rows: list[np.ndarray] = []
+    r_lo: list[float] = []
+    r_up: list[float] = []
+    if constrained:
+        previous = stance
+        previous_col: int | None = None
+        previous_fixed = np.zeros(2)
+        for i, c in enumerate(candidates):
+            # the footstep in the frame of the one before it: R(ψ_prev)ᵀ (p_i − p_prev)
+            cy, sy = math.cos(previous.yaw), math.sin(previous.yaw)
+            axes = np.array([[cy, sy], [-sy, cy]])
+            axes[1] *= SIDE_SIGN[c.nominal.side]  # lateral > 0 on the side of the swinging foot
+            d0 = c.nominal.position[:2] - previous.position[:2] - previous_fixed
+            if c.fixed is not None:
+                d0 = d0 + c.fixed
+            base = axes @ d0
+            for axis, (low, high) in enumerate(
+                ((-spec.max_step_length_m, spec.max_step_length_m),
+                 (spec.min_step_width_m, spec.max_step_width_m))
+            ):  # fmt: skip
+                row = np.zeros(nx)
+                if i in col:
+                    row[col[i] : col[i] + 2] += axes[axis]
+                if previous_col is not None:
+                    row[previous_col : previous_col + 2] -= axes[axis]
+                if not row.any():
+                    continue
+                rows.append(row)
+                r_lo.append(low - base[axis])
+                r_up.append(high - base[axis])
+            previous = c.nominal
+            previous_col = col.get(i)
+            previous_fixed = c.fixed if c.fixed is not None else np.zeros(2)
+    A = np.array(rows) if rows else np.zeros((0, nx))
+    bl = np.concatenate([lo, np.array(r_lo)])
+    bu = np.concatenate([up, np.array(r_up)])
+    sense = np.zeros(len(bl), dtype=np.int32)
+    x, _, exitflag, _ = daqp.solve(H, f, A, bu, bl, sense)
+    if exitflag != 1 or not np.all(np.isfinite(x)):
+        x = np.zeros(nx)  # infeasible (a plan already out of reach): leave the footsteps alone
+    out = []
+    for i, c in enumerate(candidates):
+        if c.fixed is not None:
+            out.append(np.array([c.fixed[0], c.fixed[1], 0.0]))
+        else:
+            out.append(np.array([x[col[i]], x[col[i] + 1], 0.0]))
+    return out
+
+
+def least_squares(candidates: list[Candidate], xi_error: np.ndarray, b: float) -> list[np.ndarray]:
+    """The unconstrained optimum in closed form (weighted least squares; for tests)."""
+    e = np.asarray(xi_error, dtype=float)[:2].copy()
+    for c in candidates:
+        if c.fixed is not None:
+            e -= c.leverage * c.fixed
+    omega = weights(candidates, b)
+    free = [i for i, c in enumerate(candidates) if c.fixed is None]
+    # Δv_j = c_j/ω_j · λ with λ = ρ (e − Σ c_j Δv_j)  ⇒  λ = e / (1/ρ + Σ c_j²/ω_j)
+    denom = 1.0 / CONDITION_WEIGHT + sum(candidates[i].leverage ** 2 / omega[i] for i in free)
+    lam = e / denom
+    out = []
+    for i, c in enumerate(candidates):
+        dv = c.fixed if c.fixed is not None else c.leverage / omega[i] * lam
+        out.append(np.array([dv[0], dv[1], 0.0]))
+    return out
