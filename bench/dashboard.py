@@ -1,7 +1,12 @@
-"""Dashboard speed, one run, with one headless Chromium connected (numbers printed, not asserted).
+"""Dashboard speed and traffic, one run (numbers printed, not asserted).
 
     PYTHONPATH=. python3 bench/dashboard.py [--preset presets/walk_forward.toml] [--seconds 10]
+                                            [--clients 0,1,5] [--tabs 5] [--latency]
                                             [--screenshot docs/dashboard.png]
+
+0. Traffic and real time with 0, 1, 5 websocket clients that do not render
+   (``bench/wsclients.py`` in its own process): messages/s and KiB/s per client, the busiest
+   message kinds, the simulation's real-time factor; with ``--tabs N``, N headless Chromium tabs.
 
 1. Preview latency: server-side time from a control change (the callback's entry point,
    ``ConfigEditor.on_field_change``) to the plan the walker walks with it (built by the session
@@ -15,8 +20,10 @@
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import socket
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -52,11 +59,14 @@ def preview_latency(dashboard: Dashboard, n: int = 30) -> np.ndarray:
     return np.array(out)
 
 
-def measure_rtf(dashboard: Dashboard, seconds: float) -> tuple[float, float, float]:
+def measure_rtf(
+    dashboard: Dashboard, seconds: float, reset: bool = True
+) -> tuple[float, float, float]:
     """(real-time factor, scene frames per second, process CPU fraction) over ``seconds``."""
     loop = dashboard.loop
-    loop.post("reset")
-    time.sleep(0.5)
+    if reset:
+        loop.post("reset")
+        time.sleep(0.5)
     wall0, sim0, frames0 = time.perf_counter(), loop.session.t, dashboard.view.frames_drawn
     cpu0 = time.process_time()
     t_last, sim_total = sim0, 0.0
@@ -70,13 +80,85 @@ def measure_rtf(dashboard: Dashboard, seconds: float) -> tuple[float, float, flo
     return sim_total / wall, fps, (time.process_time() - cpu0) / wall
 
 
+def traffic(dashboard: Dashboard, port: int, n: int, seconds: float) -> tuple[list[dict], float]:
+    """(per-client counts, real-time factor) with ``n`` websocket clients for ``seconds``."""
+    proc = None
+    if n:
+        cmd = [sys.executable, str(ROOT / "bench" / "wsclients.py"), str(port), str(n),
+               str(seconds), "--warmup", "3"]  # fmt: skip
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
+        time.sleep(3.0)
+    rtf, fps, cpu = measure_rtf(dashboard, seconds, reset=False)
+    counts = json.loads(proc.communicate(timeout=60)[0]) if proc else []
+    return counts, rtf
+
+
+def print_traffic(label: str, counts: list[dict], rtf: float, top: bool = False) -> None:
+    if not counts:
+        print(f"{label}: real-time factor {rtf:.2f}")
+        return
+    msgs = [c["messages_per_s"] for c in counts]
+    kib = [c["kib_per_s"] for c in counts]
+    print(
+        f"{label}: real-time factor {rtf:.2f}; per client {np.mean(msgs):.0f} messages/s "
+        f"({min(msgs):.0f}–{max(msgs):.0f}), {np.mean(kib):.1f} KiB/s, "
+        f"{np.mean([c['frames_per_s'] for c in counts]):.0f} frames/s"
+    )
+    if top:
+        for key, k in counts[0]["top"]:
+            print(f"    {k / counts[0]['seconds']:7.1f}/s  {key}")
+        c = counts[0]
+        print(f"  messages {c['uncompressed_kib_per_s']:.1f} KiB/s before zstd, array buffers "
+              f"{c['binary_kib_per_s']:.1f} KiB/s; messages by type:")  # fmt: skip
+        for key, k in c["by_type"][:6] + c["top_bytes"][:4]:
+            print(f"    {k / 1024 / c['seconds']:7.1f} KiB/s (msgpack + arrays)  {key}")
+
+
+def chromium_tabs(dashboard: Dashboard, url: str, port: int, n: int, seconds: float) -> None:
+    """Real-time factor with ``n`` headless Chromium tabs rendering (and one counting client)."""
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = launch_chromium(p)
+        pages = [browser.new_page(viewport={"width": 1280, "height": 720}) for _ in range(n)]
+        for page in pages:
+            page.goto(url)
+        for page in pages:
+            page.get_by_text("T_ss [s]").wait_for(timeout=90_000)
+        time.sleep(3.0)
+        counts, rtf = traffic(dashboard, port, 1, seconds)
+        print_traffic(f"{n} Chromium tabs (+1 counting client)", counts, rtf)
+        browser.close()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default=str(ROOT / "presets" / "walk_forward.toml"))
     parser.add_argument("--seconds", type=float, default=10.0)
     parser.add_argument("--screenshot", default=None, help="PNG path for a dashboard screenshot")
     parser.add_argument("--no-measure", action="store_true", help="only take the screenshot")
+    parser.add_argument("--clients", default="0,1,5", help="websocket client counts to measure")
+    parser.add_argument("--tabs", type=int, default=0, help="headless Chromium tabs to measure")
+    parser.add_argument("--latency", action="store_true", help="also measure preview latency")
     args = parser.parse_args()
+    if not args.latency and not args.screenshot:
+        config = load_preset(args.preset)
+        server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+        dashboard = Dashboard(server, config, presets_dir=ROOT / "presets")
+        port = server.get_port()
+        print(f"load average before: {os.getloadavg()[0]:.2f} (2 cores shared)")
+        time.sleep(2.0)
+        for n in (int(x) for x in args.clients.split(",") if x):
+            counts, rtf = traffic(dashboard, port, n, args.seconds)
+            print_traffic(f"{n} websocket clients", counts, rtf, top=n == 1)
+        if args.tabs:
+            chromium_tabs(dashboard, f"http://127.0.0.1:{port}", port, args.tabs, args.seconds)
+        snap = dashboard.loop.snapshot
+        print(f"({snap.backend}, {snap.robot}; render {dashboard.view.fps:.1f} fps; "
+              f"load average after {os.getloadavg()[0]:.2f})")  # fmt: skip
+        dashboard.stop()
+        server.stop()
+        return
 
     from playwright.sync_api import sync_playwright
 

@@ -496,10 +496,11 @@ def test_robot_meshes_push_the_body_they_belong_to() -> None:
 
 
 def test_robot_view_moves_only_what_moved() -> None:
-    """Meshes are added once; a pose moves the base frame and the meshes that moved relative
-    to it (a bent knee: the shank and foot meshes), through public handle properties."""
+    """Meshes are added once, nested along the kinematic tree; a bent knee sends one rotation
+    (the shank's, relative to the thigh) and the scene tree composes the same world poses as
+    the visual model's kinematics."""
     from dcmviz.backend import RobotPose
-    from dcmviz.dashboard.robot_view import RobotView
+    from dcmviz.dashboard.robot_view import RobotView, quat_multiply, quat_rotate
     from dcmviz.visual import robot_visual
 
     server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
@@ -511,16 +512,26 @@ def test_robot_view_moves_only_what_moved() -> None:
         pose = RobotPose(np.array([0.1, 0.0, 1.0]), np.array([1.0, 0.0, 0.0, 0.0]), {})
         view.update(pose)
         bent = RobotPose(pose.base_position, pose.base_wxyz, {"leg_left_4_joint": 0.6})
-        moved = view.update(bent)
-        shank = [
-            i
-            for i, m in enumerate(visual.meshes)
-            if m.link in ("leg_left_4_link", "leg_left_5_link", "leg_left_6_link")
-        ]
-        assert moved == len(shank)
+        assert view.update(bent) == 1  # the knee's child mesh turns; its children follow
+        # compose the nested node poses down the tree and compare with the visual model
         expected = visual.in_base(bent.joints)
-        for i in shank:
-            np.testing.assert_allclose(view.meshes[i].position, expected.position[i], atol=1e-6)
+        p = np.zeros((len(view.meshes), 3))
+        q = np.zeros((len(view.meshes), 4))
+        for i in sorted(range(len(view.meshes)), key=lambda i: view.meshes[i].name.count("/")):
+            parent = view.parents[i]
+            local_p = np.asarray(view.meshes[i].position, float)[None]
+            local_q = np.asarray(view.meshes[i].wxyz, float)[None]
+            if parent < 0:
+                p[i], q[i] = local_p[0], local_q[0]
+            else:
+                p[i] = p[parent] + quat_rotate(q[parent][None], local_p)[0]
+                q[i] = quat_multiply(q[parent][None], local_q)[0]
+        q *= np.sign(
+            q[:, :1] * expected.wxyz[:, :1]
+            + (q[:, 1:] * expected.wxyz[:, 1:]).sum(1, keepdims=True)
+        )
+        np.testing.assert_allclose(p, expected.position, atol=1e-3)
+        np.testing.assert_allclose(q, expected.wxyz, atol=1e-3)
         np.testing.assert_allclose(view.root.position, pose.base_position)
         assert view.update(bent) == 0  # the same pose again: nothing is sent
     finally:

@@ -16,6 +16,18 @@ MEASURED_STROKE = "#00aaff"
 REF_STROKE = "#444444"
 ADJ_STROKE = "#ff00c8"
 ERROR_STROKE = "#d62728"
+LIVE_POINTS = 300  # samples per live series (a 400 px wide panel shows no more)
+PREVIEW_POINTS = 400  # samples per preview series
+
+
+def thin(n: int, points: int) -> slice:
+    """Every k-th of ``n`` samples so that at most about ``points`` remain (the last kept)."""
+    return slice(None, None, max(1, -(-n // points)))
+
+
+def f32(x: np.ndarray, every: slice) -> np.ndarray:
+    """Samples as float32: half the bytes of float64 in a message that goes to every tab."""
+    return np.ascontiguousarray(np.asarray(x)[every], np.float32)
 
 
 def _series(label: str, stroke: str, dash: list[float] | None = None) -> uplot.Series:
@@ -51,9 +63,18 @@ class PreviewPlots:
         ]
 
     def draw(self, data: PreviewData) -> None:
-        """Replace the data of the three plots."""
+        """Replace the data of the three plots (each only if it changed)."""
+        every = thin(len(data.t), PREVIEW_POINTS)
+        t = f32(data.t, every)
         for i, handle in enumerate(self.handles):
-            handle.data = (data.t, data.vrp[:, i], data.dcm[:, i])
+            new = (t, f32(data.vrp[:, i], every), f32(data.dcm[:, i], every))
+            old = handle.data
+            if len(old) == 3 and all(
+                np.shape(a) == b.shape and np.array_equal(a, b)
+                for a, b in zip(old, new, strict=True)
+            ):
+                continue
+            handle.data = new
 
 
 class LivePlot:
@@ -94,8 +115,10 @@ class LivePlot:
         if t is None or len(t) < 2:
             return
         i = AXES.index(self.axis)
-        self.dcm.data = (t, history["xi"][:, i], history["xi_ref"][:, i], history["xi_adj"][:, i])
-        self.error.data = (t, history["dcm_error"])
+        every = thin(len(t), LIVE_POINTS)
+        t = f32(t, every)
+        self.dcm.data = (t, *(f32(history[k][:, i], every) for k in ("xi", "xi_ref", "xi_adj")))
+        self.error.data = (t, f32(history["dcm_error"], every))
 
 
 def phase_legend() -> str:

@@ -24,9 +24,14 @@ from dcmviz.robots import get_spec
 from dcmviz.visual import robot_visual
 
 RENDER_FPS = 40.0  # scene updates per second (≥ 30 with margin for scheduling jitter)
-STATUS_DT_S = 0.25
+STATUS_DT_S = 0.25  # the status line is rewritten at most this often, and only if its text changed
+PLOT_DT_S = 0.5  # the live plot is redrawn this often (its data is the largest message)
 FOLLOW_DT_S = 0.1  # camera-follow updates (per client, so kept slow)
 FLOOR_LIFT_M = 0.012  # overlays on the floor sit this high (above the footsteps)
+MARKER_TOLERANCE_M = 5e-4  # a marker that moved less is not re-sent (below a pixel at 3 m)
+ARROW_TOLERANCE_M = 5e-3  # force arrows: ends that moved less are not re-sent
+GHOST_MIN_SHIFT_M = 0.01  # an adjusted footstep closer than this to its nominal place is no ghost
+STEP_KEY_M = 0.002  # footstep markers are redrawn when a sole moved by this much
 
 
 def dz_vrp(snap: Snapshot) -> float:
@@ -73,8 +78,9 @@ class SimView:
         self.fps = 0.0
         self.frames_drawn = 0
         self._markers: dict[str, viser.SceneNodeHandle] = {}
-        self._force_shown = False
-        self._fhat_shown = False
+        self._arrow_handles: dict[str, viser.ArrowsHandle] = {}
+        self._steps_drawn: dict[str, tuple] = {}  # "adjusted"/"realised" → what is drawn
+        self._status_text = ""
         self._follow_anchor: np.ndarray | None = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="dcmviz-render", daemon=True)
@@ -91,6 +97,7 @@ class SimView:
         period = 1.0 / RENDER_FPS
         last: Snapshot | None = None
         last_status = 0.0
+        last_plot = 0.0
         last_history = None
         last_follow = 0.0
         frames, fps_t0 = 0, time.perf_counter()
@@ -103,9 +110,13 @@ class SimView:
                     self.draw_snapshot(snap, last)
                 except Exception as err:  # noqa: BLE001 - never let drawing kill the thread
                     print(f"dcmviz: drawing failed: {err!r}")
-                if snap.history is not last_history and snap.history:
+                if (
+                    snap.history is not last_history
+                    and snap.history
+                    and (t0 - last_plot >= PLOT_DT_S or not snap.playing)
+                ):
                     self.live_plot.draw(snap.history)
-                    last_history = snap.history
+                    last_history, last_plot = snap.history, t0
                 last = snap
                 frames += 1
                 self.frames_drawn += 1
@@ -116,84 +127,111 @@ class SimView:
                 self._follow(snap)
                 last_follow = t0
             if t0 - last_status >= STATUS_DT_S or self.status.is_new(snap):
-                self.status.show(snap, self.fps, t0)
+                self._show_status(snap, t0)
                 last_status = t0
             next_frame = max(next_frame + period, time.perf_counter() - period)
             time.sleep(max(0.0, next_frame - time.perf_counter()))
 
+    def _show_status(self, snap: Snapshot, now: float) -> None:
+        """Write the status line if its text changed (every tab receives each write)."""
+        text = self.status.text(snap, self.fps, now)
+        if text != self._status_text:
+            self.status.handle.content = text
+            self._status_text = text
+
     def draw_snapshot(self, snap: Snapshot, last: Snapshot | None) -> None:
-        """Robot, overlays, force arrows and footstep markers of one snapshot."""
+        """Robot, overlays, force arrows and footstep markers of one snapshot; only what changed
+        is sent (every write goes to every tab)."""
         if not self._markers:
             self._make_markers()
+        with self.server.atomic():
+            self._draw_snapshot(snap)
+
+    def _draw_snapshot(self, snap: Snapshot) -> None:
         self.draw_robot(snap)
         drop = floor_drop(snap)
         for name, value in (("xi", snap.xi), ("xi_adj", snap.xi_adj), ("v_cmd", snap.v_cmd)):
-            handle = self._markers[name]
-            handle.visible = value is not None
-            if value is not None:
-                handle.position = value - drop
+            self._place(name, None if value is None else value - drop)
         self.draw_forces(snap)
         spec = get_spec(snap.robot)
-        for field, color, opacity, lift in (
-            ("adjusted_steps", draw.GHOST_COLOR, 0.25, 0.004),
-            ("realised_steps", draw.REALISED_COLOR, 0.6, 0.008),
+        for field, steps, color, opacity, lift in (
+            ("adjusted", ghost_steps(snap), draw.GHOST_COLOR, 0.25, 0.004),
+            ("realised", snap.realised_steps, draw.REALISED_COLOR, 0.6, 0.008),
         ):
-            steps = getattr(snap, field)
-            if last is not None and _steps_key(steps) == _steps_key(getattr(last, field)):
+            key = (snap.robot, _steps_key(steps))
+            if self._steps_drawn.get(field) == key:
                 continue
+            self._steps_drawn[field] = key
             soles = [Sole(s.side, np.asarray(s.position), s.yaw, i) for i, s in enumerate(steps)]
             draw.draw_step_markers(
-                self.server.scene, f"/sim/{field.removesuffix('_steps')}", soles,
+                self.server.scene, f"/sim/{field}", soles,
                 spec.foot_length_m, spec.foot_width_m, color, opacity=opacity, lift=lift,
             )  # fmt: skip
+
+    def _place(self, name: str, position: np.ndarray | None) -> None:
+        """Show a marker at ``position`` (None hides it), sending only a visible move."""
+        handle = self._markers[name]
+        handle.visible = position is not None  # viser sends only a change of visibility
+        if position is None:
+            return
+        if np.abs(np.asarray(handle.position) - position).max() > MARKER_TOLERANCE_M:
+            handle.position = position
 
     def draw_robot(self, snap: Snapshot) -> None:
         """The humanoid's meshes, or the point mass (a ball and its pendulum leg)."""
         tick = snap.tick
         pose = tick.pose if tick is not None else None
-        com, leg = self._markers["com"], self._markers["lip_leg"]
+        leg = self._markers["lip_leg"]
         if pose is not None:
             if self.robot_view is None or self.robot_view.model != snap.robot:
                 self._load_robot_view(snap.robot)
             self.robot_view.set_visible(True)
             self.robot_view.update(pose)
-            com.visible = leg.visible = False
+            self._place("com", None)
+            leg.visible = False  # the point mass's leg leaves with the point mass
             return
         if self.robot_view is not None:
             self.robot_view.set_visible(False)
-        if snap.com is None:
+        self._place("com", snap.com)
+        if snap.com is None or snap.v_cmd is None or snap.tick is None:
+            leg.visible = False
             return
-        com.visible = True
-        com.position = snap.com
-        if snap.v_cmd is not None:  # the pendulum "leg": floor point below the VRP → CoM
-            floor = snap.v_cmd - [0.0, 0.0, dz_vrp(snap)]
-            leg.points = np.array([[floor, snap.com]], np.float32)
-            leg.visible = True
+        # the pendulum "leg": floor point below the VRP → CoM
+        points = np.array([[snap.v_cmd - [0.0, 0.0, dz_vrp(snap)], snap.com]], np.float32)
+        if np.abs(np.asarray(leg.points) - points).max() > MARKER_TOLERANCE_M:
+            leg.points = points
+        leg.visible = True
 
     def draw_forces(self, snap: Snapshot) -> None:
         """Applied forces (at the pushed bodies) and the observer's estimate (above the head)."""
-        scene = self.server.scene
-        if snap.pushes:
-            scene.add_arrows(
-                "/sim/force", arrow_points(snap.pushes), draw.FORCE_COLOR, shaft_radius=0.018,
-                head_radius=0.045, head_length=0.09,
-            )  # fmt: skip
-            self._force_shown = True
-        elif self._force_shown:
-            scene.add_arrows("/sim/force", np.zeros((1, 2, 3)), draw.FORCE_COLOR, visible=False)
-            self._force_shown = False
-        if snap.f_hat is None or snap.com is None:
-            return
-        if float(np.linalg.norm(snap.f_hat)) > 2.0:
+        self._arrows(
+            "/sim/force", arrow_points(snap.pushes) if snap.pushes else None, draw.FORCE_COLOR,
+            shaft_radius=0.018, head_radius=0.045, head_length=0.09,
+        )  # fmt: skip
+        f_hat = None
+        if snap.f_hat is not None and snap.com is not None and np.linalg.norm(snap.f_hat) > 2.0:
             origin = snap.com + [0.0, 0.0, 0.95]
-            scene.add_arrows(
-                "/sim/f_hat", np.array([[origin, origin + snap.f_hat / draw.NEWTONS_PER_METRE]]),
-                draw.OBSERVER_COLOR, shaft_radius=0.012, head_radius=0.035, head_length=0.07,
-            )  # fmt: skip
-            self._fhat_shown = True
-        elif self._fhat_shown:
-            scene.add_arrows("/sim/f_hat", np.zeros((1, 2, 3)), (0, 0, 0), visible=False)
-            self._fhat_shown = False
+            f_hat = np.array([[origin, origin + snap.f_hat / draw.NEWTONS_PER_METRE]])
+        self._arrows(
+            "/sim/f_hat", f_hat, draw.OBSERVER_COLOR,
+            shaft_radius=0.012, head_radius=0.035, head_length=0.07,
+        )  # fmt: skip
+
+    def _arrows(self, name: str, points: np.ndarray | None, color, **style: float) -> None:
+        """Arrows at ``name`` ((n, 2, 3) ends; None hides them), created once per count and then
+        moved through the handle only when an end moved visibly."""
+        handle = self._arrow_handles.get(name)
+        if points is None:
+            if handle is not None:
+                handle.visible = False
+            return
+        points = np.asarray(points, np.float32)
+        if handle is None or np.asarray(handle.points).shape != points.shape:
+            self._arrow_handles[name] = self.server.scene.add_arrows(name, points, color, **style)
+            return
+        if np.abs(np.asarray(handle.points) - points).max() > ARROW_TOLERANCE_M:
+            handle.points = points
+        handle.visible = True
 
     def _follow(self, snap: Snapshot) -> None:
         """Move every client's camera by the robot's horizontal displacement since last time."""
@@ -246,6 +284,21 @@ class SimView:
         self.robot_view = RobotView(self.server, robot_visual(model), self.on_body_click)
 
 
+def ghost_steps(snap: Snapshot) -> tuple:
+    """The adjusted footsteps worth a ghost: the one being adjusted only once it is at least
+    GHOST_MIN_SHIFT_M from its place in the walked plan (unpushed, it moves by a hair every
+    tick), then those the walked plan moved from the nominal one."""
+    tick = snap.tick
+    steps = snap.adjusted_steps
+    if tick is None or not steps or tick.adjusted_step is None:
+        return steps
+    planned = np.asarray(tick.plan.steps[tick.adjusted_index].position)
+    shift = np.linalg.norm(np.asarray(tick.adjusted_step.position)[:2] - planned[:2])
+    return steps if shift >= GHOST_MIN_SHIFT_M else steps[1:]
+
+
 def _steps_key(steps: tuple) -> tuple:
-    return tuple((s.side, round(float(s.position[0]), 4), round(float(s.position[1]), 4))
-                 for s in steps)  # fmt: skip
+    """Soles quantised to STEP_KEY_M: equal keys draw the same markers."""
+    q = 1.0 / STEP_KEY_M
+    return tuple((s.side, round(float(s.position[0]) * q), round(float(s.position[1]) * q),
+                  round(float(s.position[2]) * q), round(float(s.yaw) * 500)) for s in steps)  # fmt: skip
