@@ -18,6 +18,7 @@ notifications and downloads go to the client that asked.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from collections.abc import Callable
 from pathlib import Path
@@ -58,6 +59,7 @@ def dz_vrp_text(config: Config) -> str:
     spec = get_spec(config.robot.model)
     lo, hi = spec.com_height_range_m
     b_lo, b_hi = spec.b_range_s
+    b_lo, b_hi = math.ceil(b_lo * 1000) / 1000, math.floor(b_hi * 1000) / 1000  # the slider's
     return (
         f"Δz_vrp = g b² = {GRAVITY:.2f} · {b:.3f}² = **{vrp_height(b):.3f} m**; "
         f"{spec.name.capitalize()} walks at {lo:.2f}–{hi:.2f} m (b {b_lo:.3f}–{b_hi:.3f} s)"
