@@ -106,6 +106,10 @@ class Dashboard:
         with tabs.add_tab("Presets", viser.Icon.FILE_SETTINGS):
             self.preset_panel = PresetPanel(gui, self.editor, self.notifier, presets_dir, preset)
             self.recording = RecordingPanel(gui, self.loop, self.notifier, self.config_name)
+        with tabs.add_tab("Sweep", viser.Icon.CHART_DOTS):
+            from dcmviz.dashboard.sweep_panel import SweepPanel  # (Ray loads on Start only)
+
+            self.sweep_panel = SweepPanel(gui, lambda: self.editor.config, self.notifier)
         self.plot_panel = gui.add_panel()  # docked left: Fig. 1a and the live DCM
         with self.plot_panel.add_tab("Preview (Fig. 1a)", viser.Icon.CHART_LINE):
             gui.add_markdown(phase_legend())
