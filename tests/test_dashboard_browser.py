@@ -78,7 +78,10 @@ def page(browser, app):
     page = browser.new_page(viewport={"width": 1200, "height": 760}, accept_downloads=True)
     page.goto(url)
     page.get_by_text("T_ss [s]").wait_for(timeout=30_000)
-    time.sleep(1.0)  # first scene frames
+    # the tab is connected once it reported its camera (the view the tests project into)
+    assert wait_for(
+        lambda: any(c.camera.image_width > 0 for c in dashboard.server.get_clients().values()), 30
+    )
     yield page
     page.close()
 
@@ -102,6 +105,21 @@ def pixels(path: Path) -> np.ndarray:
     return np.asarray(Image.open(path).convert("RGB"), dtype=np.int16)
 
 
+def canvas_opacity(page) -> float:
+    return float(page.evaluate("getComputedStyle(document.querySelector('canvas')).opacity"))
+
+
+def test_first_view_is_solid_and_says_how_to_push(page, app, shots: Path) -> None:
+    """Issue 14, the first minute: the scene is drawn at full opacity (no environment map whose
+    loading fades the canvas), the first tab says what a click on the robot does."""
+    dashboard, _ = app
+    assert wait_for(lambda: canvas_opacity(page) == 1.0)
+    hint = page.get_by_text("Click the robot to push it").first
+    hint.wait_for(timeout=5_000)
+    assert f"{dashboard.push_panel.gui_push_magnitude.value:.0f} N" in hint.inner_text()
+    page.get_by_text("Feasible (the walked plan)").first.wait_for(timeout=5_000)
+
+
 def test_slider_changes_preview(page, app, shots: Path) -> None:
     dashboard, _ = app
     page.screenshot(path=shots / "01_loaded.png")
@@ -112,25 +130,68 @@ def test_slider_changes_preview(page, app, shots: Path) -> None:
     assert wait_for(lambda: dashboard.config.gait.n_steps == 14)
     assert dashboard.preview.wait(version + 1)
     assert len([s for s in dashboard.preview.data.soles if s.index >= 0]) == 14
-    time.sleep(1.0)
-    page.screenshot(path=shots / "02_n_steps_14.png")
-    diff = np.abs(pixels(shots / "01_loaded.png") - pixels(shots / "02_n_steps_14.png"))
-    assert (diff.sum(axis=2) > 30).mean() > 0.001  # the footsteps and preview redrawn
+    loaded = pixels(shots / "01_loaded.png")
+
+    def redrawn() -> bool:  # the footsteps and preview redrawn in the page
+        page.screenshot(path=shots / "02_n_steps_14.png")
+        diff = np.abs(loaded - pixels(shots / "02_n_steps_14.png"))
+        return (diff.sum(axis=2) > 30).mean() > 0.001
+
+    assert wait_for(redrawn, timeout=20)
 
 
-def test_bad_typed_value_reverts(page, app, shots: Path) -> None:
+def test_typed_value_beyond_the_robot_is_clamped_and_told(page, app, shots: Path) -> None:
+    """The w slider ends at Talos's smallest step width (0.14 m): 0.06 typed is clamped to it
+    and the page says so (issue 14: slider ranges are exactly what validation accepts)."""
     dashboard, _ = app
-    before = dashboard.config
     box = number_input(page, dashboard, ("gait", "step_width"))
-    box.fill("0.06")  # on the slider, but Talos's feet would collide (at least 0.14 m)
+    box.fill("0.06")
     box.press("Enter")
-    assert wait_for(
-        lambda: dashboard.notifications and "step_width" in dashboard.notifications[-1][1]
-    )
+    assert wait_for(lambda: dashboard.config.gait.step_width == 0.14)
+    page.get_by_text("w [m] set to 0.14").first.wait_for(timeout=5_000)
+    assert wait_for(lambda: box.input_value() == "0.14")
+    box.fill("0.17")
+    box.press("Enter")
+    assert wait_for(lambda: dashboard.config.gait.step_width == 0.17)
+
+
+def test_bad_combination_reverts(page, app, shots: Path) -> None:
+    """Δx at the reach limit is allowed; turning as well puts the steps beyond it: refused."""
+    dashboard, _ = app
+    length = number_input(page, dashboard, ("gait", "step_length"))
+    length.fill("0.45")
+    length.press("Enter")
+    assert wait_for(lambda: dashboard.config.gait.step_length == 0.45)
+    before = dashboard.config
+    turn = number_input(page, dashboard, ("gait", "turn"))
+    turn.fill("0.3")
+    turn.press("Enter")
+    assert wait_for(lambda: dashboard.notifications and "turn" in dashboard.notifications[-1][1])
     assert dashboard.config == before
-    assert wait_for(lambda: box.input_value() == str(before.gait.step_width))
+    assert wait_for(lambda: turn.input_value() == "0")
     page.get_by_text("Invalid value").first.wait_for(timeout=5_000)
     page.screenshot(path=shots / "03_invalid_value.png")
+    length.fill("0.2")
+    length.press("Enter")
+    assert wait_for(lambda: dashboard.config.gait.step_length == 0.2)
+
+
+def test_feasibility_warning_in_the_page(page, app, shots: Path) -> None:
+    """Issue 9: a T_start the checker warns about (the D2 waypoint leaves the support polygon)
+    shows its warning beside the preview and in the status, and marks the waypoint."""
+    dashboard, _ = app
+    box = number_input(page, dashboard, ("gait", "t_start"))
+    box.fill("0.2")
+    box.press("Enter")
+    assert wait_for(lambda: dashboard.config.gait.t_start == 0.2)
+    page.get_by_text("VRP waypoint 2 (D2").first.wait_for(timeout=10_000)
+    page.get_by_text("feasibility warning", exact=False).first.wait_for(timeout=5_000)
+    assert wait_for(lambda: any(w.waypoint == 1 for w in dashboard.preview.warnings))
+    page.screenshot(path=shots / "03b_feasibility_warning.png")
+    box.fill("1")
+    box.press("Enter")
+    assert wait_for(lambda: dashboard.config.gait.t_start == 1.0)
+    page.get_by_text("Feasible (the walked plan)").first.wait_for(timeout=10_000)
 
 
 def test_push_raises_and_recovers_dcm_error(page, app, shots: Path) -> None:
@@ -142,9 +203,13 @@ def test_push_raises_and_recovers_dcm_error(page, app, shots: Path) -> None:
     assert wait_for(lambda: dashboard.loop.session.t > 1.2, timeout=15)
     falls = dashboard.loop.falls
     magnitude = number_input(page, dashboard, ("push", "magnitude"))
+    n_notes = len(dashboard.notifications)
     magnitude.fill("80")
     magnitude.press("Enter")
     assert wait_for(lambda: dashboard.push_panel.gui_push_magnitude.value == 80.0)
+    assert "80 N" in dashboard.push_panel.hint()
+    # "80" is 80.0, not a changed value: no notification (the guard only tells real clamps)
+    assert not any(t == "Value changed" for t, _ in list(dashboard.notifications)[n_notes:])
     session = dashboard.loop.session
     n_pushes = len(session.pushes)
     page.get_by_role("button", name="Push", exact=True).click()
@@ -216,17 +281,21 @@ def test_upload_preset(page, app, shots: Path) -> None:
 
 
 def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
-    """Clicking the point mass (a clickable sphere at the CoM) pushes along the view direction."""
+    """Clicking the point mass (a clickable sphere at the CoM) pushes along the view direction;
+    one click, one push, and the status names the force it applied.  Every wait is on its
+    condition: the camera the tab reports, the sphere drawn where it projects, no pop-up over it."""
     import viser.transforms as vtf
 
     dashboard, _ = app
     dashboard.sim_panel.on_play(False)
-    time.sleep(0.3)
+    assert wait_for(lambda: not dashboard.loop.snapshot.playing)
     client = list(dashboard.server.get_clients().values())[-1]
     com = np.asarray(dashboard.loop.snapshot.com)
-    client.camera.position = com + np.array([-2.0, -0.6, 0.4])  # behind: view ≈ +x
+    position = com + np.array([-2.0, -0.6, 0.4])  # behind: view ≈ +x
+    client.camera.position = position
     client.camera.look_at = com + np.array([0.0, -0.5, 0.0])  # the CoM left of the panel
-    time.sleep(1.5)
+    # the tab applied the camera once it reports it back
+    assert wait_for(lambda: np.allclose(client.camera.position, position, atol=1e-3))
     cam = client.camera
     # pinhole projection (viser cameras are OpenCV-style: x right, y down, z forward)
     R = vtf.SO3(np.asarray(cam.wxyz)).as_matrix()
@@ -235,23 +304,45 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
     u = (0.5 * cam.image_width + f * p[0] / p[2]) / cam.image_width
     v = (0.5 * cam.image_height + f * p[1] / p[2]) / cam.image_height
     box = page.locator("canvas").first.bounding_box()
-    n = len(dashboard.loop.session.pushes)
-    for button in page.locator("button.mantine-Notification-closeButton").all():
-        try:  # notifications may cover the robot; some close by themselves meanwhile
-            button.click(timeout=500)
-        except sync_api.Error:
-            pass
-    time.sleep(0.5)
-    for _ in range(3):  # a click during a slow software-GL frame can be missed: retry
-        page.mouse.click(box["x"] + u * box["width"], box["y"] + v * box["height"])
-        if wait_for(lambda: len(dashboard.loop.session.pushes) > n, timeout=3):
-            break
-    assert len(dashboard.loop.session.pushes) == n + 1
+    x, y = box["x"] + u * box["width"], box["y"] + v * box["height"]
+    notes = page.locator(".mantine-Notification-root")
+
+    def nothing_over_the_robot() -> bool:  # pop-ups (which close themselves) may cover it
+        for button in page.locator("button.mantine-Notification-closeButton").all():
+            try:
+                button.click(timeout=200)
+            except sync_api.Error:
+                pass  # closed by itself meanwhile
+        return notes.count() == 0
+
+    assert wait_for(nothing_over_the_robot, timeout=15)
+    clip = {"x": x - 12, "y": y - 12, "width": 24, "height": 24}
+
+    def sphere_drawn() -> bool:  # the grey sphere under the pointer, two frames alike
+        a, b = pixels_of(page, clip), pixels_of(page, clip)
+        dark = b.mean(axis=2) < 190  # the sphere, not the white floor and its grid lines
+        return bool(np.array_equal(a, b) and dark.mean() > 0.3)
+
+    assert wait_for(sphere_drawn, timeout=15)
+    n, clicks = len(dashboard.loop.session.pushes), dashboard.push_panel.clicks
+    page.mouse.click(x, y)
+    assert wait_for(lambda: len(dashboard.loop.session.pushes) == n + 1, timeout=5)
+    assert dashboard.push_panel.clicks == clicks + 1
     push = dashboard.loop.session.pushes[-1]
     assert push.body == "torso"
     assert push.force[0] > 0.8 * np.linalg.norm(push.force)  # along the view, horizontal
-    page.screenshot(path=shots / "07_click_push.png")
     dashboard.sim_panel.on_play(True)
+    page.get_by_text("pushed torso").first.wait_for(timeout=5_000)  # the status names it
+    page.screenshot(path=shots / "07_click_push.png")
+
+
+def pixels_of(page, clip: dict) -> np.ndarray:
+    from io import BytesIO
+
+    from PIL import Image
+
+    png = page.screenshot(clip=clip, type="png")
+    return np.asarray(Image.open(BytesIO(png)).convert("RGB"), dtype=np.int16)
 
 
 def test_dragging_k_xi_changes_tracking_without_restart(page, app, shots: Path) -> None:
