@@ -80,12 +80,15 @@ def measure_rtf(
     return sim_total / wall, fps, (time.process_time() - cpu0) / wall
 
 
-def traffic(dashboard: Dashboard, port: int, n: int, seconds: float) -> tuple[list[dict], float]:
-    """(per-client counts, real-time factor) with ``n`` websocket clients for ``seconds``."""
+def traffic(
+    dashboard: Dashboard, port: int, n: int, seconds: float, drag: list[str] | None = None
+) -> tuple[list[dict], float]:
+    """(per-client counts, real-time factor) with ``n`` websocket clients for ``seconds``
+    (``drag``: UUID LO HI HZ of a slider the first client drags all the while)."""
     proc = None
     if n:
         cmd = [sys.executable, str(ROOT / "bench" / "wsclients.py"), str(port), str(n),
-               str(seconds), "--warmup", "3"]  # fmt: skip
+               str(seconds), "--warmup", "3", *(["--drag", *drag] if drag else [])]  # fmt: skip
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
         time.sleep(3.0)
     rtf, fps, cpu = measure_rtf(dashboard, seconds, reset=False)
@@ -114,6 +117,21 @@ def print_traffic(label: str, counts: list[dict], rtf: float, top: bool = False)
             print(f"    {k / 1024 / c['seconds']:7.1f} KiB/s (msgpack + arrays)  {key}")
 
 
+def sweep_rtf(dashboard: Dashboard, seconds: float) -> None:
+    """Real-time factor while the Sweep tab runs an envelope (point mass, Ray with one CPU)."""
+    panel = dashboard.sweep_panel
+    panel.gui_directions.value = 8
+    panel.gui_iterations.value = 4
+    t0 = time.perf_counter()
+    panel.start()  # the window includes Ray starting
+    rtf, _, _ = measure_rtf(dashboard, seconds, reset=False)
+    print(f"during a Sweep-tab envelope (point mass, 8 directions, {panel.state}, "
+          f"{panel.gui_progress.value:.0f} % after {time.perf_counter() - t0:.0f} s): "
+          f"real-time factor {rtf:.2f}")  # fmt: skip
+    panel.cancel()
+    panel.wait(60)
+
+
 def chromium_tabs(dashboard: Dashboard, url: str, port: int, n: int, seconds: float) -> None:
     """Real-time factor with ``n`` headless Chromium tabs rendering (and one counting client)."""
     from playwright.sync_api import sync_playwright
@@ -140,6 +158,8 @@ def main() -> None:
     parser.add_argument("--clients", default="0,1,5", help="websocket client counts to measure")
     parser.add_argument("--tabs", type=int, default=0, help="headless Chromium tabs to measure")
     parser.add_argument("--latency", action="store_true", help="also measure preview latency")
+    parser.add_argument("--drag", action="store_true", help="real time while sliders are dragged")
+    parser.add_argument("--sweep", action="store_true", help="real time during a Sweep-tab sweep")
     args = parser.parse_args()
     if not args.latency and not args.screenshot:
         config = load_preset(args.preset)
@@ -151,6 +171,17 @@ def main() -> None:
         for n in (int(x) for x in args.clients.split(",") if x):
             counts, rtf = traffic(dashboard, port, n, args.seconds)
             print_traffic(f"{n} websocket clients", counts, rtf, top=n == 1)
+        if args.drag:
+            for key, lo, hi in (("control.k_xi", 2.0, 4.0), ("gait.step_length", 0.15, 0.25)):
+                handle = dashboard.controls.handles[tuple(key.split("."))]
+                drag = [handle._impl.uuid, str(lo), str(hi), "30"]  # the slider's wire id
+                version = dashboard.version
+                counts, rtf = traffic(dashboard, port, 1, args.seconds, drag)
+                print_traffic(f"1 websocket client dragging {key} {lo}…{hi} at 30 Hz "
+                              f"({counts[0]['drag_updates']} updates, "
+                              f"{dashboard.version - version} configs adopted)", counts, rtf)  # fmt: skip
+        if args.sweep:
+            sweep_rtf(dashboard, args.seconds)
         if args.tabs:
             chromium_tabs(dashboard, f"http://127.0.0.1:{port}", port, args.tabs, args.seconds)
         snap = dashboard.loop.snapshot

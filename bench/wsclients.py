@@ -1,10 +1,12 @@
 """Non-rendering dashboard clients: N websocket connections that count what the server sends.
 
-    python3 bench/wsclients.py PORT N SECONDS [--warmup S]
+    python3 bench/wsclients.py PORT N SECONDS [--warmup S] [--drag UUID LO HI HZ]
 
 Each connects like a browser tab (viser's subprotocol, a camera message first), skips the
 initial state for ``--warmup`` seconds, then counts frames, bytes and messages (decoded: zstd +
-msgpack) by type for SECONDS, and prints one JSON line: a list with one dict per client.  Run in
+msgpack) by type for SECONDS, and prints one JSON line: a list with one dict per client.
+``--drag``: the first client also drags the slider UUID back and forth between LO and HI,
+HZ updates a second (what a browser sends while a slider is dragged).  Run in
 its own process so decoding does not compete with the server for the GIL.
 """
 
@@ -69,7 +71,25 @@ def _by_type(sizes: Counter[str]) -> Counter[str]:
     return out
 
 
-async def client(port: int, warmup_s: float, seconds: float) -> dict:
+def slider_update(uuid: str, value: float) -> bytes:
+    return msgspec.msgpack.encode(
+        {"type": "GuiUpdateMessage", "uuid": uuid, "updates": {"value": value}}
+    )
+
+
+async def drag(ws, uuid: str, lo: float, hi: float, hz: float, until: float) -> int:
+    """Triangle wave between lo and hi, one full sweep every 2 s; returns updates sent."""
+    sent, t0 = 0, time.monotonic()
+    while (now := time.monotonic()) < until:
+        phase = ((now - t0) / 2.0) % 1.0
+        frac = 2 * phase if phase < 0.5 else 2 - 2 * phase
+        await ws.send(slider_update(uuid, round(lo + (hi - lo) * frac, 3)))
+        sent += 1
+        await asyncio.sleep(1.0 / hz)
+    return sent
+
+
+async def client(port: int, warmup_s: float, seconds: float, dragging=None) -> dict:
     url = f"ws://127.0.0.1:{port}"
     counts: Counter[str] = Counter()
     sizes: Counter[str] = Counter()  # msgpack (before zstd) + array bytes by kind
@@ -80,6 +100,9 @@ async def client(port: int, warmup_s: float, seconds: float) -> dict:
         await ws.send(CAMERA)
         t0 = time.monotonic()
         start, end = t0 + warmup_s, t0 + warmup_s + seconds
+        dragger = None
+        if dragging is not None:
+            dragger = asyncio.create_task(drag(ws, *dragging, until=end))
         while (now := time.monotonic()) < end:
             try:
                 frame = await asyncio.wait_for(ws.recv(), timeout=end - now)
@@ -96,7 +119,9 @@ async def client(port: int, warmup_s: float, seconds: float) -> dict:
                 key = message_key(m)
                 counts[key] += 1
                 sizes[key] += len(msgspec.msgpack.encode(m)) + array_bytes(m, lengths)
+        drags = await dragger if dragger is not None else 0
     return {
+        "drag_updates": drags,
         "frames_per_s": frames / seconds,
         "messages_per_s": messages / seconds,
         "kib_per_s": nbytes / 1024 / seconds,
@@ -109,11 +134,20 @@ async def client(port: int, warmup_s: float, seconds: float) -> dict:
     }
 
 
-async def main(port: int, n: int, seconds: float, warmup_s: float) -> list[dict]:
-    return list(await asyncio.gather(*(client(port, warmup_s, seconds) for _ in range(n))))
+async def main(port: int, n: int, seconds: float, warmup_s: float, dragging=None) -> list[dict]:
+    return list(
+        await asyncio.gather(
+            *(client(port, warmup_s, seconds, dragging if i == 0 else None) for i in range(n))
+        )
+    )
 
 
 if __name__ == "__main__":
     port, n, seconds = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
     warmup = float(sys.argv[sys.argv.index("--warmup") + 1]) if "--warmup" in sys.argv else 3.0
-    print(json.dumps(asyncio.run(main(port, n, seconds, warmup))))
+    dragging = None
+    if "--drag" in sys.argv:
+        i = sys.argv.index("--drag")
+        uuid, lo, hi, hz = sys.argv[i + 1 : i + 5]
+        dragging = (uuid, float(lo), float(hi), float(hz))
+    print(json.dumps(asyncio.run(main(port, n, seconds, warmup, dragging))))
