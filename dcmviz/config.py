@@ -188,6 +188,56 @@ class Push(_Section):
         return (s * self.force[0], s * self.force[1], s * self.force[2])
 
 
+class StairsSection(_Section):
+    """``[terrain.stairs]``: a flight of stairs along +x (up, or down with a negative rise)."""
+
+    start: float = _field(
+        0.35, symbol="x_0", unit="m", description="x of the first riser", ge=-20.0, le=20.0
+    )
+    rise: float = _field(
+        0.10, symbol="h_rise", unit="m", description="height per step (< 0: down)", ge=-0.3, le=0.3
+    )
+    run: float = _field(0.30, symbol="l_run", unit="m", description="tread depth", ge=0.15, le=1.0)
+    count: int = _field(5, symbol="n_stairs", description="number of steps", ge=1, le=30)
+    width: float = _field(1.2, unit="m", description="lateral extent", ge=0.3, le=10.0)
+    landing: float = _field(
+        1.5, unit="m", description="landing beyond the last step (down: behind the first)",
+        ge=0.3, le=20.0,
+    )  # fmt: skip
+
+    @field_validator("rise")
+    @classmethod
+    def _not_flat(cls, v: float) -> float:
+        if v == 0.0:
+            raise ValueError("must not be 0 (no stairs: leave [terrain.stairs] out)")
+        return v
+
+
+class BoxEntry(_Section):
+    """``[[terrain.boxes]]``: a platform or stepping stone standing on the floor."""
+
+    center: tuple[float, float]  # m, x, y of the top face's centre
+    size: tuple[float, float]  # m, extent along the box's x and y
+    top: float = _field(0.1, unit="m", description="height of the top face", gt=0.0, le=2.0)
+    yaw: float = _field(0.0, unit="rad", description="yaw", ge=-math.pi, le=math.pi)
+
+    @field_validator("center", "size")
+    @classmethod
+    def _finite_positive(cls, v: tuple[float, float], info: Any) -> tuple[float, float]:
+        if not all(math.isfinite(c) for c in v):
+            raise ValueError("every coordinate must be a finite number (m)")
+        if info.field_name == "size" and not all(0.05 <= c <= 20.0 for c in v):
+            raise ValueError("each side must be 0.05–20 m")
+        return v
+
+
+class TerrainSection(_Section):
+    """``[terrain]``: stairs and boxes on the flat floor; footsteps take the height under them."""
+
+    stairs: StairsSection | None = None
+    boxes: tuple[BoxEntry, ...] = Field(default=(), max_length=200)
+
+
 class Config(_Section):
     name: str = "Walk forward"
     description: str = ""
@@ -197,6 +247,7 @@ class Config(_Section):
     control: ControlSection = ControlSection()
     sim: SimSection = SimSection()
     pushes: tuple[Push, ...] = ()
+    terrain: TerrainSection | None = None
 
     @model_validator(mode="after")
     def _robot_consistent(self) -> Config:
@@ -211,6 +262,11 @@ class Config(_Section):
         if problem:
             raise ValueError(f"dcm.b = {self.dcm.b}: {problem}")
         check_reachable(spec, self.gait)
+        if self.terrain is not None and self.gait.step_height != 0.0:
+            raise ValueError(
+                f"gait.step_height = {self.gait.step_height}: must be 0 with a [terrain] "
+                "(each footstep takes the height of the ground under it)"
+            )
         return self
 
     def replace(self, **sections: Any) -> Config:
@@ -369,6 +425,9 @@ __all__ = [
     "Push",
     "RobotSection",
     "SimSection",
+    "StairsSection",
+    "BoxEntry",
+    "TerrainSection",
     "apply_overrides",
     "config_from_dict",
     "dumps_preset",

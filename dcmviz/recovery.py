@@ -49,6 +49,7 @@ class Candidate:
     leverage: float  # c_j = 1/A_adj,j: DCM reference change at its instant per metre moved
     lead_time_s: float  # t_j − t: how far in the future its adjustment instant lies
     fixed: np.ndarray | None = None  # (2,) Δv of a frozen footstep (not a variable)
+    box: tuple[np.ndarray, np.ndarray] | None = None  # (lo, hi) of Δv_xy: e.g. the tread's
 
 
 def weights(candidates: list[Candidate], b: float) -> np.ndarray:
@@ -90,6 +91,12 @@ def solve(
     f = -2.0 * CONDITION_WEIGHT * lev.T @ e
     lo = np.full(nx, -max_adjustment)
     up = np.full(nx, max_adjustment)
+    for i in free:
+        if candidates[i].box is not None:
+            j = col[i]
+            lo[j : j + 2] = np.maximum(lo[j : j + 2], candidates[i].box[0])
+            up[j : j + 2] = np.minimum(up[j : j + 2], candidates[i].box[1])
+            up[j : j + 2] = np.maximum(up[j : j + 2], lo[j : j + 2])
     rows: list[np.ndarray] = []
     r_lo: list[float] = []
     r_up: list[float] = []

@@ -23,6 +23,7 @@ from dcmviz.config import Config, Push
 from dcmviz.gait import GaitPlan
 from dcmviz.robots import RobotSpec, get_spec
 from dcmviz.state import MeasuredState, WalkerCommand
+from dcmviz.terrain import terrain_of
 from dcmviz.tick import AppliedPush, Tick
 from dcmviz.walker import Walker
 
@@ -43,9 +44,15 @@ def make_backend(config: Config, backend: str | None = None) -> Backend:
     if name == "lip":
         from dcmviz.sim.lip import LipBackend
 
-        return LipBackend(config.robot.model)
+        return LipBackend(config.robot.model, terrain=terrain_of(config.terrain))
     if name == "mujoco":
         from dcmviz.sim.mujoco_sim import MujocoBackend
+
+        if not terrain_of(config.terrain).flat:
+            raise ValueError(
+                "terrain: the MuJoCo scene is a flat floor in this version; walk stairs and boxes "
+                "on the point mass (sim.backend = 'lip')"
+            )
 
         return MujocoBackend(config.robot.model)
     raise ValueError(f"sim.backend = {name!r}: allowed 'mujoco' or 'lip'")
@@ -89,7 +96,7 @@ class Session:
         name = backend or self.backend_name
         old = self.config
         if old is not None and self.backend is not None and name == self.backend_name:
-            changed = [k for k in ("robot", "gait", "dcm", "sim", "pushes")
+            changed = [k for k in ("robot", "gait", "dcm", "sim", "pushes", "terrain")
                        if getattr(config, k) != getattr(old, k)]  # fmt: skip
             if not changed:
                 self.config = config
@@ -102,6 +109,7 @@ class Session:
             self.backend is None
             or name != self.backend_name
             or config.robot.model != old.robot.model
+            or config.terrain != old.terrain
         )
         self.config = config
         self.backend_name = name

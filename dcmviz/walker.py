@@ -42,12 +42,14 @@ from dcmviz.gait import (
     build_plan,
     clamp_to_reach,
     horizon_steps,
+    on_terrain,
     plan_footsteps,
     timing_of,
 )
 from dcmviz.recovery import Candidate
 from dcmviz.robots import get_spec
 from dcmviz.state import SIDES, FootTarget, MeasuredState, WalkerCommand
+from dcmviz.terrain import EDGE_MARGIN_M, terrain_of
 
 MULTI_STEPS = 3  # footsteps sharing the DCM error with recovery = "multi_step"
 HORIZON_STEPS = 4  # continuous mode: at least this many footsteps previewed ahead
@@ -91,6 +93,7 @@ class Walker:
         self.config = config
         self.control: ControlSection = config.control  # gains: may change while walking
         self.spec = get_spec(config.robot.model)
+        self.terrain = terrain_of(config.terrain)
         self.mass = float(mass)
         self.dt = float(dt)
         self.b = config.dcm.b
@@ -121,6 +124,7 @@ class Walker:
             _, steps = plan_footsteps(gait)
         else:
             steps = horizon_steps(gait, start, gait.first_swing, horizon_count(gait, self.b))
+        steps = on_terrain(steps, self.terrain)
         self.plan = build_plan(
             start,
             steps,
@@ -267,8 +271,11 @@ class Walker:
             if j == k and self.swing_step == k and self.swing.frozen(t):
                 fixed = self.swing.target[:2] - plan.steps[k].position[:2]
             candidates.append(
-                Candidate(plan.steps[j], 1.0 / self._gain(j), self._instant(j) - t, fixed)
-            )
+                Candidate(
+                    plan.steps[j], 1.0 / self._gain(j), self._instant(j) - t, fixed,
+                    self._tread_box(plan.steps[j]),
+                )
+            )  # fmt: skip
         dvs = recovery.solve(
             candidates, plan.stance_for(k), xi_error, self.spec,
             self.control.max_step_adjustment, self.b,
@@ -313,13 +320,45 @@ class Walker:
         nominal = self.plan.steps[k]
         dv = self._gain(k) * np.asarray(xi_error, dtype=float)
         dv[2] = 0.0
-        return clamp_to_reach(
+        target = clamp_to_reach(
             self.spec,
             stance,
             nominal.moved(nominal.position + dv),
             nominal.position,
             self.control.max_step_adjustment,
         )
+        return self._on_tread(nominal, target)
+
+    def _tread_box(self, nominal: Footstep) -> tuple[np.ndarray, np.ndarray] | None:
+        """Bounds of Δv_xy that keep footstep ``nominal`` on its tread (see ``_on_tread``)."""
+        if self.terrain.flat:
+            return None
+        box = self.terrain.support_under(nominal.position[:2])
+        if box is None:
+            return None
+        p = nominal.position[:2]
+        corners = np.array([box.clamp(p + d, self._tread_margin(box)) for d in
+                            ((-9.0, -9.0), (9.0, 9.0), (-9.0, 9.0), (9.0, -9.0))])  # fmt: skip
+        return corners.min(axis=0) - p, corners.max(axis=0) - p
+
+    def _tread_margin(self, box) -> float:
+        margin = EDGE_MARGIN_M + 0.5 * math.hypot(self.spec.foot_length_m, self.spec.foot_width_m)
+        if box.size[0] < 2 * margin or box.size[1] < 2 * margin:
+            margin = EDGE_MARGIN_M + 0.5 * self.spec.foot_length_m
+        return margin
+
+    def _on_tread(self, nominal: Footstep, target: np.ndarray) -> np.ndarray:
+        """On terrain an adjusted footstep stays on its nominal tread, the whole sole at least
+        EDGE_MARGIN_M inside its edges, so it never straddles an edge and its height (the
+        tread's, the z of its VRP waypoints) does not change: ξ_adj stays continuous.  What the
+        tread cannot take goes to the next footstep like any other limit (``_adjust``)."""
+        if self.terrain.flat:
+            return target
+        box = self.terrain.support_under(nominal.position[:2])
+        if box is None:
+            return target
+        xy = box.clamp(target[:2], self._tread_margin(box))
+        return np.array([xy[0], xy[1], nominal.position[2]])
 
     def done(self, t: float) -> bool:
         return self.config.gait.mode == "plan" and t >= self.plan.t_end
@@ -331,7 +370,10 @@ class Walker:
             step.side, np.array(state.feet[step.side], float), float(state.feet_yaw[step.side])
         )
         t_lift, t_touch = self.plan.swing_window(k)
-        self.swing = SwingTrajectory.between(t_lift, t_touch, lift, step)
+        self.swing = SwingTrajectory.between(
+            t_lift, t_touch, lift, step, terrain=self.terrain,
+            sole=(self.spec.foot_length_m, self.spec.foot_width_m),
+        )  # fmt: skip
         self.swing_step = k
 
     def _touchdown(self, state: MeasuredState) -> None:
@@ -357,6 +399,7 @@ class Walker:
                 OTHER[step.side],
                 horizon_count(self.config.gait, self.b),
             )
+            steps = on_terrain(steps, self.terrain)
             self.plan = build_plan(
                 dict(self.placed),
                 steps,

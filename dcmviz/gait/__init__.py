@@ -2,7 +2,13 @@
 contact schedule, closed-form preview) and swing-foot paths."""
 
 from dcmviz.gait.feasibility import PlanWarning, check_plan
-from dcmviz.gait.footsteps import generated_step, horizon_steps, initial_feet, plan_footsteps
+from dcmviz.gait.footsteps import (
+    generated_step,
+    horizon_steps,
+    initial_feet,
+    on_terrain,
+    plan_footsteps,
+)
 from dcmviz.gait.plan import (
     START_SPLIT,
     ContactState,
@@ -34,6 +40,7 @@ __all__ = [
     "generated_step",
     "horizon_steps",
     "initial_feet",
+    "on_terrain",
     "plan_footsteps",
     "plan_from_config",
     "reach_problem",

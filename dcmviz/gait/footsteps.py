@@ -17,6 +17,7 @@ import numpy as np
 from dcmviz.config import GaitSection
 from dcmviz.robots.reach import generated_step_offset
 from dcmviz.state import OTHER, SIDE_SIGN, Footstep
+from dcmviz.terrain import Terrain
 
 
 def _heading_offset(yaw: float, side: str, width: float) -> np.ndarray:
@@ -100,3 +101,15 @@ def horizon_steps(
         feet[side] = step
         side = OTHER[side]
     return tuple(out)
+
+
+def on_terrain(steps: tuple[Footstep, ...], terrain: Terrain) -> tuple[Footstep, ...]:
+    """The footsteps at the height of the ground under their sole centres (a flat floor: as they
+    are)."""
+    if terrain.flat:
+        return steps
+    heights = terrain.height_at(np.array([s.position[:2] for s in steps]))
+    return tuple(
+        s.moved(np.array([s.position[0], s.position[1], float(h)]))
+        for s, h in zip(steps, heights, strict=True)
+    )

@@ -23,8 +23,9 @@ import numpy as np
 
 from dcmviz.config import Config, GaitSection
 from dcmviz.dcm import Preview, continuity_waypoints, vrp_height
-from dcmviz.gait.footsteps import plan_footsteps
+from dcmviz.gait.footsteps import on_terrain, plan_footsteps
 from dcmviz.state import OTHER, Footstep
+from dcmviz.terrain import terrain_of
 
 START_SPLIT = 0.5  # fraction of t_start spent in start_a (mid0 → w2); the rest in start_b
 
@@ -322,6 +323,7 @@ def plan_from_config(
     measures); by default from the feet at (0, ±step_width/2, 0) with the CoM Δz_vrp above them.
     """
     feet, steps = plan_footsteps(config.gait)
+    steps = on_terrain(steps, terrain_of(config.terrain))
     return build_plan(
         feet if start_feet is None else start_feet,
         steps,

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dcmviz.state import Footstep
+from dcmviz.terrain import Terrain
 
 SWING_HEIGHT_M = 0.06  # apex of the swing above the higher of lift-off and touchdown
 RETARGET_FREEZE = 0.8  # the swing target is frozen for the last 20 % of single support
@@ -26,6 +27,40 @@ def _quintic_coefficients(
     c4 = (-15 * d + 7 * e * T - f * T2) / T4
     c5 = (6 * d - 3 * e * T + 0.5 * f * T2) / T5
     return np.array([c0, c1, c2, c3, c4, c5])
+
+
+EDGE_CLEARANCE_M = 0.03  # over terrain, the sole passes every edge at least this high
+
+
+def _apex_over(
+    terrain: Terrain,
+    lift: Footstep,
+    touch: Footstep,
+    sole: tuple[float, float],
+    z0: float,
+    z1: float,
+) -> float:
+    """The smallest apex h with z(s) ≥ ground under the sole + EDGE_CLEARANCE_M along the path.
+
+    The sole's centre moves with the quintic q(s) between lift-off and touchdown (as the
+    horizontal path does when not re-targeted); the ground under it is sampled at its corners,
+    edge mid-points and centre; z(s) = z0 + (z1 − z0) q(s) + h 64 s³ (1 − s)³.
+    """
+    s = np.linspace(0.02, 0.98, 49)
+    q = s**3 * (10 - 15 * s + 6 * s * s)
+    bump = 64 * s**3 * (1 - s) ** 3
+    a, b = 0.5 * sole[0], 0.5 * sole[1]
+    offsets = np.array(
+        [[u * a, v * b] for u in (-1.0, 0.0, 1.0) for v in (-1.0, 0.0, 1.0)]
+    )  # (9, 2) in the sole frame
+    yaw = lift.yaw + (touch.yaw - lift.yaw) * q
+    c, sn = np.cos(yaw), np.sin(yaw)
+    centre = lift.position[:2] + np.outer(q, touch.position[:2] - lift.position[:2])  # (49, 2)
+    px = centre[:, None, 0] + c[:, None] * offsets[:, 0] - sn[:, None] * offsets[:, 1]
+    py = centre[:, None, 1] + sn[:, None] * offsets[:, 0] + c[:, None] * offsets[:, 1]
+    ground = terrain.height_at(np.stack([px, py], axis=-1)).max(axis=1)  # (49,)
+    need = (ground + EDGE_CLEARANCE_M - z0 - (z1 - z0) * q) / bump
+    return float(max(need.max(), 0.0))
 
 
 @dataclass(frozen=True)
@@ -54,9 +89,15 @@ class SwingTrajectory:
         lift: Footstep,
         touch: Footstep,
         clearance: float = SWING_HEIGHT_M,
+        terrain: Terrain | None = None,
+        sole: tuple[float, float] = (0.0, 0.0),
     ) -> SwingTrajectory:
+        """The path from ``lift`` to ``touch``; over a ``terrain`` its apex is raised until the
+        sole (``sole`` = length, width, m) passes every edge under it with ``EDGE_CLEARANCE_M``."""
         z0, z1 = float(lift.position[2]), float(touch.position[2])
         height = clearance + 0.5 * abs(z1 - z0)
+        if terrain is not None and not terrain.flat:
+            height = max(height, _apex_over(terrain, lift, touch, sole, z0, z1))
         yaw1 = lift.yaw + math.remainder(touch.yaw - lift.yaw, 2 * math.pi)
         p0 = np.array([lift.position[0], lift.position[1], lift.yaw])
         p1 = np.array([touch.position[0], touch.position[1], yaw1])

@@ -21,6 +21,7 @@ from dcmviz import GRAVITY
 from dcmviz.robots import RobotSpec, get_spec
 from dcmviz.robots.geometry import convex_hull, project_to_polygon, sole_corners
 from dcmviz.state import SIDES, MeasuredState, WalkerCommand
+from dcmviz.terrain import Terrain
 
 E_Z = np.array([0.0, 0.0, 1.0])
 
@@ -30,8 +31,11 @@ class LipBackend:
 
     name = "lip"
 
-    def __init__(self, robot: str = "talos", *, control_dt: float = 0.005) -> None:
+    def __init__(
+        self, robot: str = "talos", *, control_dt: float = 0.005, terrain: Terrain | None = None
+    ) -> None:
         self.spec: RobotSpec = get_spec(robot)
+        self.terrain = terrain if terrain is not None else Terrain()
         self.mass = self.spec.mass_kg
         self.b = self.spec.b_nominal_s  # of the robot standing at its own CoM height
         self.control_dt = float(control_dt)
@@ -41,12 +45,14 @@ class LipBackend:
     # -- interface ------------------------------------------------------------------------------
     def reset(self) -> MeasuredState:
         half = 0.5 * self.spec.foot_spacing_m
-        self.feet = {"left": np.array([0.0, half, 0.0]), "right": np.array([0.0, -half, 0.0])}
+        z = self.terrain.height_at(np.array([[0.0, half], [0.0, -half]]))  # standing on the ground
+        self.feet = {"left": np.array([0.0, half, z[0]]), "right": np.array([0.0, -half, z[1]])}
         self.feet_yaw = {"left": 0.0, "right": 0.0}
         self.in_contact = {"left": True, "right": True}
         self.t = 0.0
         self._ticks = 0  # the clock counts ticks: t = ticks · dt never drifts off a phase boundary
-        self.com = np.array([0.0, 0.0, self.spec.com_height_m])  # the robot's, not the controller's
+        ground = max(float(z[0]), float(z[1]))
+        self.com = np.array([0.0, 0.0, ground + self.spec.com_height_m])  # the robot's height
         self.com_velocity = np.zeros(3)
         self.applied = self.mass * GRAVITY * E_Z
         self.support_distance = 0.0  # how far the asked VRP lay outside the support polygon
@@ -149,7 +155,7 @@ class LipBackend:
     def _check_fall(self, polygon: np.ndarray) -> None:
         xi = self.com + self.b * self.com_velocity  # the robot's own b (nominal CoM height)
         _, d = project_to_polygon(xi[:2], polygon)
-        ground = max(self.feet[s][2] for s in SIDES)
+        ground = max(self.feet[s][2] for s in SIDES if self.in_contact[s])  # under the stance
         if d > self.spec.max_step_width_m or self.com[2] - ground < 0.5 * self.spec.com_height_m:
             self._fell = True
 

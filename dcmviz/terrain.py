@@ -1,0 +1,117 @@
+"""Terrain: flat floor plus boxes (platforms, stepping stones) and stairs built from boxes.
+
+Pure geometry, no physics: the planner asks how high the ground is under a sole and which tread
+a point lies on; the MuJoCo scene and the dashboard draw the same boxes.  A preset's
+``[terrain]`` section (see :mod:`dcmviz.config`) is turned into a :class:`Terrain` by
+:func:`terrain_of`.  World frame, z up; heights are those of the top faces.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+EDGE_MARGIN_M = 0.02  # a sole keeps this far inside its tread's edges
+
+
+@dataclass(frozen=True)
+class Box:
+    """A block standing on the floor: top face at ``top`` (m), ``size`` (x, y) about ``center``."""
+
+    center: tuple[float, float]  # m, world x, y of the top face's centre
+    size: tuple[float, float]  # m, extent along the box's own x and y
+    top: float  # m, height of the top face above the floor
+    yaw: float = 0.0  # rad
+
+    def local(self, xy: np.ndarray) -> np.ndarray:
+        """Points (…, 2) in the box's frame (origin at its centre)."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        d = np.asarray(xy, dtype=float) - np.asarray(self.center)
+        return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
+
+    def contains(self, xy: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        """True where a point lies on the top face, at least ``margin`` inside its edges."""
+        p = self.local(xy)
+        hx, hy = 0.5 * self.size[0] - margin, 0.5 * self.size[1] - margin
+        return (np.abs(p[..., 0]) <= hx) & (np.abs(p[..., 1]) <= hy)
+
+    def clamp(self, xy: np.ndarray, margin: float) -> np.ndarray:
+        """The nearest point of the top face at least ``margin`` inside its edges."""
+        p = self.local(xy)
+        hx = max(0.5 * self.size[0] - margin, 0.0)
+        hy = max(0.5 * self.size[1] - margin, 0.0)
+        q = np.array([min(max(p[0], -hx), hx), min(max(p[1], -hy), hy)])
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return np.asarray(self.center) + np.array([c * q[0] - s * q[1], s * q[0] + c * q[1]])
+
+
+@dataclass(frozen=True)
+class Terrain:
+    """The floor (z = 0) and boxes on it; the ground is the highest top face under a point."""
+
+    boxes: tuple[Box, ...] = ()
+
+    @property
+    def flat(self) -> bool:
+        return not self.boxes
+
+    def height_at(self, xy: np.ndarray) -> np.ndarray:
+        """Ground height (m) under points (…, 2)."""
+        xy = np.asarray(xy, dtype=float)
+        h = np.zeros(xy.shape[:-1])
+        for box in self.boxes:
+            h = np.where(box.contains(xy), np.maximum(h, box.top), h)
+        return h
+
+    def support_under(self, xy: np.ndarray) -> Box | None:
+        """The box whose top face a point stands on (None: the floor)."""
+        best: Box | None = None
+        for box in self.boxes:
+            if bool(box.contains(xy)) and (best is None or box.top > best.top):
+                best = box
+        return best
+
+    def sole_heights(self, corners: np.ndarray) -> np.ndarray:
+        """Ground height under each corner (4, 2) of a sole: unequal heights straddle an edge."""
+        return self.height_at(corners)
+
+
+def stairs_boxes(
+    start: float, rise: float, run: float, count: int, width: float, landing: float
+) -> tuple[Box, ...]:
+    """Stairs along +x from x = ``start``: ``count`` treads ``run`` deep, each ``rise`` higher
+    (``rise`` < 0: down from a landing of height count·|rise| that ends at ``start``), then a
+    landing ``landing`` long at the top (up) or the floor (down)."""
+    boxes = []
+    if rise > 0:
+        for i in range(count):
+            depth = run if i < count - 1 else run + landing
+            x0 = start + i * run
+            boxes.append(Box((x0 + 0.5 * depth, 0.0), (depth, width), (i + 1) * rise))
+    else:
+        h = -rise
+        top = count * h
+        x_far = start - landing  # the landing reaches back behind the robot's start
+        boxes.append(Box((0.5 * (x_far + start), 0.0), (start - x_far, width), top))
+        for i in range(1, count):
+            x0 = start + (i - 1) * run
+            boxes.append(Box((x0 + 0.5 * run, 0.0), (run, width), top - i * h))
+    return tuple(boxes)
+
+
+def terrain_of(section: Any) -> Terrain:
+    """The :class:`Terrain` of a preset's ``[terrain]`` section (None: flat floor)."""
+    if section is None:
+        return Terrain()
+    boxes: list[Box] = []
+    stairs = section.stairs
+    if stairs is not None:
+        boxes += stairs_boxes(
+            stairs.start, stairs.rise, stairs.run, stairs.count, stairs.width, stairs.landing
+        )
+    for b in section.boxes:
+        boxes.append(Box(tuple(b.center), tuple(b.size), b.top, b.yaw))
+    return Terrain(tuple(boxes))

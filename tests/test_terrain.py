@@ -1,0 +1,117 @@
+"""Terrain (issue 10, planning part): stairs and boxes, footsteps on treads, swing clearance."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from dcmviz.config import Config, ConfigError, loads_preset
+from dcmviz.gait import plan_from_config
+from dcmviz.gait.swing import EDGE_CLEARANCE_M, SwingTrajectory
+from dcmviz.robots import get_spec
+from dcmviz.robots.geometry import sole_corners
+from dcmviz.session import Session
+from dcmviz.state import Footstep
+from dcmviz.terrain import Terrain, stairs_boxes
+
+STAIRS = """
+[gait]
+n_steps = 12
+step_length = 0.30
+t_ss = 0.9
+t_ds = 0.3
+[terrain.stairs]
+start = 0.15
+rise = {rise}
+run = 0.30
+count = 10
+[sim]
+backend = "lip"
+"""
+
+
+def stairs(rise: float) -> Config:
+    return loads_preset(STAIRS.format(rise=rise))
+
+
+def test_stairs_heights_against_a_direct_formula() -> None:
+    terrain = Terrain(stairs_boxes(0.15, 0.15, 0.30, 10, 1.2, 1.5))
+    rng = np.random.default_rng(0)
+    xy = np.column_stack([rng.uniform(-1.0, 5.0, 2000), rng.uniform(-0.7, 0.7, 2000)])
+    expected = np.where(
+        (np.abs(xy[:, 1]) <= 0.6) & (xy[:, 0] >= 0.15) & (xy[:, 0] <= 0.15 + 9 * 0.3 + 1.8),
+        0.15 * np.clip(np.floor((xy[:, 0] - 0.15) / 0.30) + 1, 0, 10),
+        0.0,
+    )
+    np.testing.assert_allclose(terrain.height_at(xy), expected)
+
+
+@pytest.mark.parametrize("rise", [0.15, -0.15])
+def test_footsteps_take_the_tread_heights_and_sit_inside_treads(rise: float) -> None:
+    config = stairs(rise)
+    plan = plan_from_config(config)
+    terrain = Terrain(stairs_boxes(0.15, rise, 0.30, 10, 1.2, 1.5))
+    spec = get_spec("talos")
+    for step in plan.steps:
+        corners = sole_corners(step.position, step.yaw, spec.foot_length_m, spec.foot_width_m)
+        heights = terrain.height_at(corners[:, :2] if corners.shape[1] > 2 else corners)
+        assert np.ptp(heights) == 0.0  # no sole straddles an edge
+        assert step.position[2] == pytest.approx(heights[0])
+    z = [s.position[2] for s in plan.steps]
+    assert z[9] == pytest.approx(1.5 if rise > 0 else 0.0)
+
+
+def test_swing_clears_every_edge_by_the_stated_margin() -> None:
+    terrain = Terrain(stairs_boxes(0.15, 0.15, 0.30, 10, 1.2, 1.5))
+    spec = get_spec("talos")
+    lift = Footstep("left", np.array([0.3, 0.085, 0.15]))
+    touch = Footstep("left", np.array([0.9, 0.085, 0.45]))
+    swing = SwingTrajectory.between(
+        0.0, 0.9, lift, touch, terrain=terrain, sole=(spec.foot_length_m, spec.foot_width_m)
+    )
+    gx, gy = np.meshgrid(np.linspace(-0.5, 0.5, 7), np.linspace(-0.5, 0.5, 5))
+    for t in np.linspace(0.02, 0.88, 400):
+        p, _, _, yaw, _ = swing.sample(t)
+        c, s = math.cos(yaw), math.sin(yaw)
+        lx, ly = gx.ravel() * spec.foot_length_m, gy.ravel() * spec.foot_width_m
+        pts = np.column_stack([p[0] + c * lx - s * ly, p[1] + s * lx + c * ly])
+        assert p[2] >= terrain.height_at(pts).max() + EDGE_CLEARANCE_M - 2e-3
+
+
+@pytest.mark.parametrize("rise", [0.15, -0.15])
+def test_point_mass_climbs_and_descends_ten_steps(rise: float) -> None:
+    s = Session(stairs(rise), backend="lip")
+    s.run(20.0)
+    assert not s.fell and s.steps_completed == 12
+    assert s.metrics.max_dcm_error_m < 0.01
+    top = 1.5 if rise > 0 else 0.0
+    assert s.last_state.feet["left"][2] == pytest.approx(top)
+
+
+@pytest.mark.parametrize("recovery", ["next_step", "multi_step"])
+def test_push_on_the_stairs_keeps_adjusted_footsteps_on_their_treads(recovery: str) -> None:
+    config = stairs(0.15)
+    config = config.replace(control={**config.control.model_dump(), "recovery": recovery})
+    s = Session(config, backend="lip")
+    s.push((0.0, -100.0, 0.0), 0.2, start=3.2)  # 20 N·s lateral
+    s.run(20.0)
+    assert not s.fell
+    spec = get_spec("talos")
+    terrain = Terrain(stairs_boxes(0.15, 0.15, 0.30, 10, 1.2, 1.5))
+    moved = [r for r in s.realised_steps() if np.linalg.norm(r.adjustment[:2]) > 1e-3]
+    assert moved  # the push was large enough to adjust footsteps
+    for r in s.realised_steps():
+        corners = sole_corners(r.position, 0.0, spec.foot_length_m, spec.foot_width_m)
+        heights = terrain.height_at(corners[:, :2] if corners.shape[1] > 2 else corners)
+        assert np.ptp(heights) == 0.0 and r.position[2] == pytest.approx(heights[0])
+
+
+def test_terrain_is_validated_and_the_humanoid_refuses_it_plainly() -> None:
+    with pytest.raises(ConfigError, match="terrain.stairs.rise"):
+        loads_preset("[terrain.stairs]\nrise = 0.0")
+    with pytest.raises(ConfigError, match="step_height"):
+        loads_preset("[gait]\nstep_height = 0.05\n[terrain.stairs]\nrise = 0.1")
+    with pytest.raises(ValueError, match="flat floor"):
+        Session(stairs(0.15).replace(sim={"backend": "mujoco"}), backend="mujoco")
