@@ -254,9 +254,14 @@ class Session:
         )
         adjusted = walker.adjusted_target
         plan = walker.plan
-        adjusted_step = None
+        adjusted_step = recovery_step = None
         if adjusted is not None and 0 <= adjusted[0] < len(plan.steps):
             adjusted_step = plan.steps[adjusted[0]].moved(np.array(adjusted[1], float))
+        second = walker.recovery_target
+        if second is not None and 0 <= second[0] < len(plan.steps):
+            nominal = plan.steps[second[0]]
+            if float(np.linalg.norm(np.asarray(second[1]) - nominal.position)) > 1e-3:
+                recovery_step = nominal.moved(np.array(second[1], float))
         return Tick(
             index=self._ticks,
             t=float(cmd.t),
@@ -269,6 +274,7 @@ class Session:
             nominal_plan=walker.nominal_plan,
             adjusted_index=-1 if adjusted_step is None else int(adjusted[0]),
             adjusted_step=adjusted_step,
+            recovery_step=recovery_step,
             realised_steps=walker.records[-REALISED_IN_TICK:],
             steps_completed=walker.steps_completed,
             next_step_index=walker.next_step_index,

@@ -41,6 +41,8 @@ class Tick:
     nominal_plan: GaitPlan  # the plan as it was when the walk started
     adjusted_index: int  # index into plan.steps of the footstep being adjusted now, -1 if none
     adjusted_step: Footstep | None  # that footstep where it will land (step adjustment, eq. 32)
+    recovery_step: Footstep | None  # the footstep after it, where it will land when it takes
+    #                                 what the adjusted one cannot (None when it stays nominal)
     realised_steps: tuple[StepRecord, ...]  # footsteps that have landed, in order
     steps_completed: int
     next_step_index: int  # index into plan.steps of the first footstep not yet landed
@@ -72,12 +74,16 @@ class Tick:
     def adjusted_steps(self) -> tuple[Footstep, ...]:
         """Footsteps still to come that differ from the nominal plan (the ghosts), the one being
         adjusted right now first."""
-        out: list[Footstep] = [] if self.adjusted_step is None else [self.adjusted_step]
+        out: list[Footstep] = [s for s in (self.adjusted_step, self.recovery_step) if s]
         plan, nominal = self.plan, self.nominal_plan
         if len(nominal.steps) != len(plan.steps):
             return tuple(out)
         for k in range(self.next_step_index, len(plan.steps)):
             p, q = plan.steps[k].position, nominal.steps[k].position
-            if k != self.adjusted_index and float(np.linalg.norm(p - q)) > 1e-3:
+            pending = self.adjusted_index >= 0 and k in (
+                self.adjusted_index,
+                self.adjusted_index + 1,
+            )
+            if not pending and float(np.linalg.norm(p - q)) > 1e-3:
                 out.append(plan.steps[k])
         return tuple(out)

@@ -83,3 +83,17 @@ def test_multi_step_walk_is_nominal_undisturbed_and_recovers_pushes() -> None:
     s.push((0.0, -150.0, 0.0), 0.2, start=3.95)
     s.run(12.0)
     assert not s.fell
+
+
+@pytest.mark.parametrize("strategy", ["next_step", "multi_step"])
+def test_tick_shows_the_footstep_after_the_adjusted_one_when_it_takes_the_rest(strategy) -> None:
+    """A push towards the stance foot: the swinging foot may not cross, so the footstep after it
+    steps out; the tick carries both for the dashboard's ghosts."""
+    config = Config().replace(sim={"backend": "lip"}, control={"recovery": strategy})
+    s = Session(config, backend="lip")
+    seen = []
+    s.subscribe(lambda tick: seen.append(tick.recovery_step) if tick.recovery_step else None)
+    s.push((0.0, 150.0, 0.0), 0.2, start=3.95)  # left, towards the left stance foot
+    s.run(5.0)
+    assert seen, "the footstep after the adjusted one never moved"
+    assert max(step.position[1] for step in seen) > 0.085 + 0.05  # the left foot steps out
