@@ -328,13 +328,14 @@ def test_fall_notifies_and_resets() -> None:
     d = Dashboard(server, config, presets_dir=PRESETS, start=False)
     try:
         d.loop.start()
-        time.sleep(0.3)
-        assert d.push_panel.push((1000.0, 0.0, 0.0), "torso", None)
         deadline = time.time() + 10.0
+        while d.loop.session.t < 0.3 and time.time() < deadline:  # walking
+            time.sleep(0.02)
+        assert d.push_panel.push((1000.0, 0.0, 0.0), "torso", None)
         while d.loop.falls == 0 and time.time() < deadline:
             time.sleep(0.05)
         assert d.loop.falls == 1
-        assert d.notifications[-1][0] == "Fall"
+        assert d.notifications[-1][0] == "Fall" and "Likely cause" in d.notifications[-1][1]
         while d.loop.session.fell and time.time() < deadline:
             time.sleep(0.05)
         assert not d.loop.session.fell  # reset after the pause, still running

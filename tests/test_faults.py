@@ -131,7 +131,7 @@ def still_working(d: Dashboard, port: int, *tabs: Tab) -> None:
     t = d.loop.session.t
     assert wait_for(lambda: d.loop.session.t > t + 0.2)
     assert all(tab_.closed_code is None for tab_ in tabs)
-    received, code = tab(port, listen_s=0.3)
+    received, code = tab(port)
     assert code is None and received > 0
     k = d.controls.handles[("control", "k_xi")]
     value = 4.0 if d.config.control.k_xi != 4.0 else 5.0

@@ -10,7 +10,7 @@ from __future__ import annotations
 import asyncio
 import socket
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import msgspec
 import pytest
@@ -67,24 +67,27 @@ def decode(frame: bytes) -> list[dict]:
     return list(msgspec.msgpack.decode(inner)["messages"])
 
 
+Until = Callable[[list[dict]], bool]
+
+
 async def _session(
-    port: int, frames: list[bytes | str], listen_s: float, seen: list[dict] | None = None
+    port: int, frames: list[bytes | str], until: Until, timeout: float, seen: list[dict]
 ) -> tuple[int, int | None]:
-    """Connect like a browser tab, send ``frames``, listen; (frames received, close code)."""
+    """Connect like a browser tab, send ``frames``, listen until ``until(messages)`` holds (or
+    ``timeout`` s); (frames received, close code)."""
     url = f"ws://127.0.0.1:{port}"
     received = 0
     async with websockets.connect(url, subprotocols=[f"viser-v{viser.__version__}"]) as ws:
         await ws.send(CAMERA)
         for frame in frames:
             await ws.send(frame)
-        deadline = time.monotonic() + listen_s
+        deadline = time.monotonic() + timeout
         try:
-            while (left := deadline - time.monotonic()) > 0:
+            while (left := deadline - time.monotonic()) > 0 and not (received and until(seen)):
                 try:
                     frame = await asyncio.wait_for(ws.recv(), timeout=left)
                     received += 1
-                    if seen is not None:
-                        seen.extend(decode(frame))
+                    seen.extend(decode(frame))
                 except TimeoutError:
                     break
         except websockets.ConnectionClosed as closed:
@@ -92,8 +95,22 @@ async def _session(
     return received, None
 
 
-def tab(port: int, frames=(), listen_s: float = 1.0, seen: list[dict] | None = None):
-    return asyncio.run(_session(port, list(frames), listen_s, seen))
+def tab(
+    port: int, frames=(), until: Until | None = None, seen: list[dict] | None = None,
+    timeout: float = 10.0,
+) -> tuple[int, int | None]:  # fmt: skip
+    """A tab's session: by default it ends with the first frame the server sends (the state);
+    give ``until`` to wait for what a sent frame causes (a notification, the server's state:
+    viser runs a control's callbacks only while its sender is connected)."""
+    seen = [] if seen is None else seen
+    return asyncio.run(_session(port, list(frames), until or (lambda m: True), timeout, seen))
+
+
+def notified(title: str) -> Until:
+    """The tab was shown a notification whose title contains ``title``."""
+    return lambda messages: any(
+        m["type"] == "NotificationShowMessage" and title in m["props"]["title"] for m in messages
+    )
 
 
 def shown_value(messages: list[dict], uuid: str):
@@ -121,7 +138,10 @@ def test_huge_integer_is_clamped_and_every_tab_keeps_working(served) -> None:
     port = server.get_port()
     n = d.controls.handles[("gait", "n_steps")]
     seen: list[dict] = []
-    received, code = tab(port, [update(uuid_of(n), {"value": 1e30})], seen=seen)
+    received, code = tab(
+        port, [update(uuid_of(n), {"value": 1e30})], seen=seen,
+        until=lambda m: shown_value(m, uuid_of(n)) == int(n.max),
+    )  # fmt: skip
     assert code is None and received > 0
     # clamped to the control's range (what validation accepts), then applied as a config
     assert wait_for(lambda: d.config.gait.n_steps == int(n.max))
@@ -129,7 +149,7 @@ def test_huge_integer_is_clamped_and_every_tab_keeps_working(served) -> None:
     assert shown_value(seen, uuid_of(n)) == int(n.max)  # the sender shows the stored value
     # a new tab connects, receives the whole state (the same n) and stays open
     seen = []
-    received, code = tab(port, seen=seen)
+    received, code = tab(port, seen=seen, until=lambda m: shown_value(m, uuid_of(n)) == int(n.max))
     assert code is None and received > 0
     assert shown_value(seen, uuid_of(n)) == int(n.max)
 
@@ -152,25 +172,26 @@ def test_malformed_values_are_refused_and_state_is_kept(served, updates) -> None
     server, d = served
     n = d.controls.handles[("gait", "n_steps")]
     before_value, before_label, version = n.value, n.label, d.version
-    received, code = tab(server.get_port(), [update(uuid_of(n), updates)], listen_s=0.5)
+    received, code = tab(server.get_port(), [update(uuid_of(n), updates)], notified("refused"))
     assert code is None and received > 0
     assert wait_for(lambda: d.notifications and "refused" in d.notifications[-1][0])
     assert (n.value, n.label, d.version) == (before_value, before_label, version)
     # the control still works for everyone afterwards
-    tab(server.get_port(), [update(uuid_of(n), {"value": 7})], listen_s=0.3)
+    tab(server.get_port(), [update(uuid_of(n), {"value": 7})], lambda m: d.config.gait.n_steps == 7)
     assert wait_for(lambda: d.config.gait.n_steps == 7)
-    assert tab(server.get_port(), listen_s=0.3)[1] is None
+    assert tab(server.get_port())[1] is None
 
 
 def test_garbage_frames_close_only_the_sender(served) -> None:
     server, d = served
     port = server.get_port()
     for frame in (b"\x00\xff garbage", msgspec.msgpack.encode({"type": "NoSuchMessage"}), "text"):
-        tab(port, [frame], listen_s=0.2)
+        tab(port, [frame])
     n = d.controls.handles[("gait", "n_steps")]
-    tab(port, [update("no-such-uuid", {"value": 3}), update(uuid_of(n), {"value": 9})], 0.3)
+    tab(port, [update("no-such-uuid", {"value": 3}), update(uuid_of(n), {"value": 9})],
+        lambda m: d.config.gait.n_steps == 9)  # fmt: skip
     assert wait_for(lambda: d.config.gait.n_steps == 9)
-    received, code = tab(port, listen_s=0.5)
+    received, code = tab(port)
     assert code is None and received > 0
 
 
@@ -195,12 +216,12 @@ def test_representation_is_not_a_change_but_a_clamp_is(served) -> None:
     magnitude = d.push_panel.gui_push_magnitude
     k = d.controls.handles[("control", "k_xi")]
     before = len(d.notifications)
-    tab(port, [update(uuid_of(magnitude), {"value": 80}), update(uuid_of(k), {"value": 3.1 + 4e-16})],
-        listen_s=0.3)  # fmt: skip
+    frames = [update(uuid_of(magnitude), {"value": 80}), update(uuid_of(k), {"value": 3.1 + 4e-16})]
+    tab(port, frames, lambda m: magnitude.value == 80.0 and d.config.control.k_xi != 3.0)
     assert wait_for(lambda: magnitude.value == 80.0 and d.config.control.k_xi == pytest.approx(3.1))
     assert isinstance(magnitude.value, float)
     assert not any(title == "Value changed" for title, _ in list(d.notifications)[before:])
-    tab(port, [update(uuid_of(magnitude), {"value": 5000.0})], listen_s=0.3)
+    tab(port, [update(uuid_of(magnitude), {"value": 5000.0})], notified("Value changed"))
     assert wait_for(lambda: d.notifications and d.notifications[-1][0] == "Value changed")
     assert magnitude.value == magnitude.max and str(magnitude.max) in d.notifications[-1][1]
 
@@ -233,7 +254,7 @@ def test_uploads_refused_by_size_before_they_are_read(served, size) -> None:
     before = d.config
     frames = [upload_start(button, size, parts=max(1, size // 1_000_000))]
     frames += [upload_part(button, size, 0, b"#" * 1_000_000)] if size else []
-    tab(server.get_port(), frames, listen_s=0.3)
+    tab(server.get_port(), frames, notified("Upload refused"))
     assert wait_for(lambda: d.notifications and d.notifications[-1][0] == "Upload refused")
     body = d.notifications[-1][1]
     assert ("empty" in body if size == 0 else str(size) in body) and "docs/presets.md" in body
@@ -246,6 +267,8 @@ def test_upload_that_outgrows_its_declared_size_is_dropped(served) -> None:
     button = d.preset_panel.gui_upload
     frames = [upload_start(button, 100, parts=2), upload_part(button, 100, 0, b"#" * 90),
               upload_part(button, 100, 1, b"#" * 50_000)]  # fmt: skip
-    tab(server.get_port(), frames, listen_s=0.3)
+    n = d.controls.handles[("gait", "n_steps")]  # handled after the parts: its echo ends the tab
+    tab(server.get_port(), [*frames, update(uuid_of(n), {"value": 5})],
+        lambda m: d.config.gait.n_steps == 5)  # fmt: skip
     assert wait_for(lambda: server.gui._current_file_upload_states == {})
     assert not any(title == "Preset loaded" for title, _ in d.notifications)

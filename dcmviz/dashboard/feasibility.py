@@ -38,7 +38,7 @@ def warnings_markdown(warnings: Sequence[PlanWarning], source: str) -> str:
     lines += [f"- {w.message}" for w in warnings[:SHOWN_WARNINGS]]
     if len(warnings) > SHOWN_WARNINGS:
         lines.append(f"- … and {len(warnings) - SHOWN_WARNINGS} more")
-    lines.append("<small>Marked red in the scene: offending footsteps and waypoints.</small>")
+    lines.append("\n<small>Marked red in the scene: offending footsteps and waypoints.</small>")
     return "\n".join(lines)
 
 
