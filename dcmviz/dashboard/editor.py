@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import viser
 
-from dcmviz.config import Config, ConfigError, config_from_dict
+from dcmviz.config import PRESETS_DOC, Config, ConfigError, config_from_dict
 from dcmviz.dashboard.feasibility import plan_warnings
 from dcmviz.dashboard.gui import DCM_SLIDERS, GEOMETRY_FIELDS, parse_value
 from dcmviz.dashboard.loop import SimLoop
@@ -139,6 +139,8 @@ class ConfigEditor:
 
     def reject(self, message: str, client: viser.ClientHandle | None) -> None:
         """Tell the user what is wrong and put the controls back to the last good config."""
-        self.notifier.notify(client, "Invalid value", message, error=True)
+        self.notifier.notify(
+            client, "Invalid value", f"{message} (limits: {PRESETS_DOC})", error=True
+        )
         for listener in list(self._rejected):
             listener(self.config)

@@ -135,7 +135,9 @@ def install_guard(
         if changed:  # the sender still shows what it typed: send everyone the stored value
             ws.queue_message(_messages.GuiUpdateMessage(message.uuid, {"value": value}))
             if notify is not None:
-                notify(client_id, "Value changed", f"{_label(handle)} set to {value}")
+                lo, hi = getattr(handle, "min", None), getattr(handle, "max", None)
+                allowed = f" (allowed {lo} to {hi})" if lo is not None and hi is not None else ""
+                notify(client_id, "Value changed", f"{_label(handle)} set to {value}{allowed}")
 
     ws.unregister_handler(_messages.GuiUpdateMessage, original)
     ws.register_handler(_messages.GuiUpdateMessage, guarded)
