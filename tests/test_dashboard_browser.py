@@ -265,8 +265,20 @@ def test_upload_preset(page, app, shots: Path) -> None:
     upload.set_input_files(
         files=[{"name": "bad.toml", "mimeType": "text/plain", "buffer": b"[gait]\nt_ss = -1.0\n"}]
     )
-    assert wait_for(lambda: dashboard.notifications[-1][0] == "Preset refused")
+    assert wait_for(
+        lambda: dashboard.notifications and dashboard.notifications[-1][0] == "Preset refused"
+    )
     assert dashboard.config == before
+    # refused by the size the browser declares, before viser stores any of it
+    for name, content, why in (("big.toml", b"#" * 5_000_000, "5000000 bytes"),
+                               ("empty.toml", b"", "empty")):  # fmt: skip
+        n = len(dashboard.notifications)
+        upload.set_input_files(files=[{"name": name, "mimeType": "text/plain", "buffer": content}])
+        assert wait_for(lambda n=n: len(dashboard.notifications) > n, timeout=20)
+        title, body = dashboard.notifications[-1]
+        assert title == "Upload refused" and why in body and "docs/presets.md" in body
+        assert dashboard.server.gui._current_file_upload_states == {}
+        assert dashboard.config == before
     good = before.replace(gait={"n_steps": 6}).model_copy(update={"name": "Uploaded"})
     from dcmviz.config import dumps_preset
 
