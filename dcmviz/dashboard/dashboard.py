@@ -125,7 +125,9 @@ class Dashboard:
             server, self.loop, self.preview_plots, self.controls.extra["gizmos"],
             self.notifier.guarded("dragging a footstep", self.editor.on_footstep_moved),
             config=lambda: self.editor.config,
-            on_warnings=lambda warnings: self.feasibility.show(warnings, "the walked plan"),
+            on_warnings=lambda warnings: self.feasibility.show(
+                warnings, "the walked plan", self.loop.snapshot.version, walked=True
+            ),
         )  # fmt: skip
         self.view = SimView(
             server, self.loop, live_plot=self.live_plot,
@@ -149,7 +151,9 @@ class Dashboard:
             )
         )
         self.editor.on_applied(
-            lambda config, preset: self.feasibility.show(self.editor.warnings, "this edit")
+            lambda config, preset: self.feasibility.show(
+                self.editor.warnings, "this edit", self.editor.version, walked=False
+            )
         )
         self.push_panel.on_hint(self.show_push_hint)
         self.show_push_hint(self.push_panel.hint())

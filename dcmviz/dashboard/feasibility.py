@@ -79,11 +79,20 @@ class FeasibilityPanel:
         self.gui_warnings = gui.add_markdown("")
         self.warnings: tuple[PlanWarning, ...] = ()
         self.source = ""
+        self._shown = (-1, False)  # (config version, walked) of what is shown
         self._lock = threading.Lock()
 
-    def show(self, warnings: Sequence[PlanWarning], source: str) -> None:
+    def show(
+        self, warnings: Sequence[PlanWarning], source: str, version: int, walked: bool
+    ) -> None:
+        """Show the warnings of config ``version``'s plan: the edit's (``walked`` False) until the
+        walk has taken it, then the walked plan's, which an edit's of the same version never
+        replaces (the two threads that call this may run in either order)."""
         text = warnings_markdown(warnings, source)
         with self._lock:
+            if (version, walked) < self._shown:
+                return
+            self._shown = (version, walked)
             self.warnings, self.source = tuple(warnings), source
             if self.gui_warnings.content != text:
                 self.gui_warnings.content = text
