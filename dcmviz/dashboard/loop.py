@@ -29,6 +29,8 @@ MAX_LAG_S = 1.0  # sim seconds the loop may fall behind (e.g. descheduled) and s
 SNAPSHOT_DT = 1.0 / 60.0  # wall seconds between published snapshots
 HISTORY_WINDOW_S = 8.0  # sim seconds of history in a snapshot
 HISTORY_DT = 0.2  # wall seconds between history copies (the live plot rate)
+CONFIG_MIN_INTERVAL_S = 0.2  # configs are adopted at most this often (a dragged slider: the
+# newest waits; a restart per slider event, 30 a second, would stop the simulation keeping up)
 
 
 @dataclass(frozen=True)
@@ -107,6 +109,8 @@ class SimLoop:
         self._step_times: deque[float] = deque(maxlen=200)
         self._fallen_at: float | None = None
         self._last_history = 0.0
+        self._pending_config: Any = None  # (version, Config) waiting for CONFIG_MIN_INTERVAL_S
+        self._config_at = -float("inf")  # perf_counter of the last adopted config
         self._publish()
 
     # -- commands (any thread) --------------------------------------------------------------------
@@ -215,7 +219,9 @@ class SimLoop:
     def _handle_commands(self) -> bool:
         """Apply queued commands; True when the clock must be re-anchored.
 
-        Of several queued configs (a slider being dragged) only the newest is applied.
+        Of several queued configs (a slider being dragged) only the newest is applied, and
+        the running loop adopts configs at most every CONFIG_MIN_INTERVAL_S: a newer one waits
+        (replacing any waiting one) and is adopted when the interval has passed.
         """
         commands: list[tuple[str, Any]] = []
         while True:
@@ -223,18 +229,40 @@ class SimLoop:
                 commands.append(self._commands.get_nowait())
             except queue.Empty:
                 break
-        if not commands:
-            return False
         last_config = max((i for i, (k, _) in enumerate(commands) if k == "config"), default=-1)
+        if last_config >= 0:
+            self._pending_config = commands[last_config][1]
+        paced = self._thread is not None and self._thread.is_alive()  # (not when driven by hand)
+        due = self._pending_config is not None and (
+            not paced or time.perf_counter() - self._config_at >= CONFIG_MIN_INTERVAL_S
+        )
+        if not commands and not due:
+            return False
+        applied = False
         for i, (kind, payload) in enumerate(commands):
-            if kind == "config" and i != last_config:
+            if kind == "config":
+                if i == last_config and due:  # in its place among the other commands
+                    applied = self._adopt_pending() or applied
                 continue
-            try:
-                self._apply(kind, payload)
-            except Exception as err:  # noqa: BLE001 - a bad command must not stop the simulation
-                self.on_event("error", f"{kind}: {err}")
-        self._publish()
+            self._run_command(kind, payload)
+            applied = True
+        if due and self._pending_config is not None:  # waiting from an earlier batch
+            applied = self._adopt_pending() or applied
+        if applied:
+            self._publish()
+        return applied
+
+    def _adopt_pending(self) -> bool:
+        payload, self._pending_config = self._pending_config, None
+        self._config_at = time.perf_counter()
+        self._run_command("config", payload)
         return True
+
+    def _run_command(self, kind: str, payload: Any) -> None:
+        try:
+            self._apply(kind, payload)
+        except Exception as err:  # noqa: BLE001 - a bad command must not stop the simulation
+            self.on_event("error", f"{kind}: {err}")
 
     def _apply(self, kind: str, payload: Any) -> None:
         if kind == "config":
