@@ -132,8 +132,37 @@ def sweep_rtf(dashboard: Dashboard, seconds: float) -> None:
     panel.wait(60)
 
 
-def chromium_tabs(dashboard: Dashboard, url: str, port: int, n: int, seconds: float) -> None:
-    """Real-time factor with ``n`` headless Chromium tabs rendering (and one counting client)."""
+def renice_browsers(niceness: int) -> int:
+    """Lower the priority of this process's Chromium descendants (the simulation server keeps
+    its core while they render); returns how many processes were reniced."""
+    children: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as f:
+                    ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+            except OSError:
+                continue
+            children.setdefault(ppid, []).append(int(entry))
+    todo, n = list(children.get(os.getpid(), [])), 0
+    while todo:
+        pid = todo.pop()
+        todo.extend(children.get(pid, []))
+        try:
+            with open(f"/proc/{pid}/comm") as f:
+                if "chrom" in f.read():
+                    os.setpriority(os.PRIO_PROCESS, pid, niceness)
+                    n += 1
+        except OSError:
+            pass
+    return n
+
+
+def chromium_tabs(
+    dashboard: Dashboard, url: str, port: int, n: int, seconds: float, nice: int = 0
+) -> None:
+    """Real-time factor with ``n`` headless Chromium tabs rendering (and one counting client);
+    ``nice`` > 0 renices the browsers' processes."""
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as p:
@@ -146,6 +175,12 @@ def chromium_tabs(dashboard: Dashboard, url: str, port: int, n: int, seconds: fl
         time.sleep(3.0)
         counts, rtf = traffic(dashboard, port, 1, seconds)
         print_traffic(f"{n} Chromium tabs (+1 counting client)", counts, rtf)
+        print(f"  target ≥ 0.8 with {n} tabs: {'met' if rtf >= 0.8 else 'NOT met'}")
+        if nice:
+            k = renice_browsers(nice)
+            time.sleep(1.0)
+            counts, rtf = traffic(dashboard, port, 1, seconds)
+            print_traffic(f"{n} Chromium tabs, {k} browser processes at nice {nice}", counts, rtf)
         browser.close()
 
 
@@ -157,6 +192,8 @@ def main() -> None:
     parser.add_argument("--no-measure", action="store_true", help="only take the screenshot")
     parser.add_argument("--clients", default="0,1,5", help="websocket client counts to measure")
     parser.add_argument("--tabs", type=int, default=0, help="headless Chromium tabs to measure")
+    parser.add_argument("--nice-browsers", type=int, default=0,
+                        help="then renice the browsers to this and measure again")  # fmt: skip
     parser.add_argument("--latency", action="store_true", help="also measure preview latency")
     parser.add_argument("--drag", action="store_true", help="real time while sliders are dragged")
     parser.add_argument("--sweep", action="store_true", help="real time during a Sweep-tab sweep")
@@ -183,7 +220,8 @@ def main() -> None:
         if args.sweep:
             sweep_rtf(dashboard, args.seconds)
         if args.tabs:
-            chromium_tabs(dashboard, f"http://127.0.0.1:{port}", port, args.tabs, args.seconds)
+            url = f"http://127.0.0.1:{port}"
+            chromium_tabs(dashboard, url, port, args.tabs, args.seconds, args.nice_browsers)
         snap = dashboard.loop.snapshot
         print(f"({snap.backend}, {snap.robot}; render {dashboard.view.fps:.1f} fps; "
               f"load average after {os.getloadavg()[0]:.2f})")  # fmt: skip

@@ -173,23 +173,35 @@ def main() -> None:
 
 
 def summarise(samples: list[tuple[float, float, float, float, bool]], after_min: float) -> None:
-    """Slopes over the samples after ``after_min`` (every preset loaded once: each robot's
-    models are built once per process, a one-time cost)."""
+    """RSS slope after ``after_min`` (every preset loaded once: each robot's models are built
+    once per process, a step up, not a leak), and within each uninterrupted stretch of the
+    continuous walk (what grows with the steps walked); the cost trend of the continuous walk."""
     a = np.array([s[:4] for s in samples]) if samples else np.zeros((0, 4))
     main = np.array([s[4] for s in samples], bool)
     late = a[:, 0] >= after_min
-    if late.sum() < 2:
-        late = np.ones(len(a), bool)
-    rss_slope = fit_slope(a[late, 0], a[late, 1])
-    walk = a[main & late]
+    overall = fit_slope(a[late, 0], a[late, 1]) if late.sum() >= 3 else float("nan")
+    stretches, start = [], None  # runs of continuous-walk samples, the first after a switch out
+    for i in range(len(a) + 1):
+        if i < len(a) and main[i]:
+            start = i if start is None else start
+            continue
+        if start is not None and i - start >= 4:
+            stretches.append(slice(start + 1, i))
+        start = None
+    within = [(fit_slope(a[s, 0], a[s, 1]), a[s, 0][-1] - a[s, 0][0]) for s in stretches]
+    weights = np.array([w for _, w in within])
+    within_slope = float(np.average([v for v, _ in within], weights=weights)) if within else 0.0
+    walk = a[main & (a[:, 0] >= 1.0)]
     cost_slope = fit_slope(walk[:, 0], walk[:, 2]) if len(walk) else float("nan")
     q = max(1, len(walk) // 4)
     ratio = float(np.median(walk[-q:, 2]) / np.median(walk[:q, 2])) if len(walk) else float("nan")
     print(
-        f"RSS slope {rss_slope:+.2f} MB/min after minute {after_min:.1f} ({a[late, 1].min():.0f}–"
-        f"{a[late, 1].max():.0f} MB); cost per tick of the continuous walk "
-        f"{cost_slope:+.2f} µs/min, last quarter / first quarter {ratio:.3f}; "
-        f"real-time factor median {np.median(a[:, 3]):.2f} (min {a[:, 3].min():.2f})"
+        f"RSS slope within the continuous walk's stretches {within_slope:+.2f} MB/min "
+        f"({len(within)} stretches, {weights.sum() if within else 0:.1f} min); over everything "
+        f"after minute {after_min:.1f} {overall:+.2f} MB/min; RSS {a[:, 1].min():.0f}–"
+        f"{a[:, 1].max():.0f} MB.  CPU per tick of the continuous walk {cost_slope:+.2f} µs/min, "
+        f"last quarter / first quarter {ratio:.3f}; real-time factor median "
+        f"{np.median(a[:, 3]):.2f} (min {a[:, 3].min():.2f})"
     )
 
 
