@@ -17,7 +17,7 @@ REF_STROKE = "#444444"
 ADJ_STROKE = "#ff00c8"
 ERROR_STROKE = "#d62728"
 LIVE_POINTS = 300  # samples per live series (a 400 px wide panel shows no more)
-PREVIEW_POINTS = 400  # samples per preview series
+PREVIEW_POINTS = 250  # samples per preview series
 
 
 def thin(n: int, points: int) -> slice:

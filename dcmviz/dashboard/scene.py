@@ -25,6 +25,8 @@ GHOST_COLOR = (255, 0, 200)
 REALISED_COLOR = (60, 60, 60)
 SOLE_THICKNESS_M = 0.006
 NEWTONS_PER_METRE = 100.0  # arrow length scale: 100 N ↔ 1 m
+SPLINE_POINTS = 150  # control points of the DCM splines (Catmull-Rom: smooth between them)
+VRP_SEGMENT_STRIDE = 2  # preview samples per drawn VRP segment (divides SAMPLES_PER_PHASE)
 ARROW_STANDOFF_M = 0.15  # a push arrow stops this far before the body point (outside the shell)
 
 
@@ -84,9 +86,22 @@ def draw_footsteps(scene: viser.SceneApi, data: PreviewData) -> None:
         )  # fmt: skip
 
 
+def thin_segments(
+    pts: np.ndarray, colors: np.ndarray, stride: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Join each ``stride`` consecutive segments of a polyline into one (the colour of the
+    first): with ``stride`` dividing the samples per phase, phase boundaries stay vertices."""
+    if stride <= 1 or len(pts) <= stride:
+        return pts, colors
+    starts = pts[::stride, 0]
+    ends = np.vstack([starts[1:], pts[-1:, 1]])
+    return np.stack([starts, ends], axis=1).astype(np.float32), colors[::stride]
+
+
 def draw_preview(scene: viser.SceneApi, data: PreviewData) -> None:
     """VRP trajectory coloured by phase kind, its waypoints, and the DCM trajectory (eqs. 13, 16)."""
     pts, colors = data.vrp_segments()
+    pts, colors = thin_segments(pts, colors, VRP_SEGMENT_STRIDE)
     scene.add_line_segments("/preview/vrp", pts, colors, thickness=4.0, thickness_units="screen")
     scene.add_point_cloud(
         "/preview/vrp_waypoints",
@@ -97,7 +112,7 @@ def draw_preview(scene: viser.SceneApi, data: PreviewData) -> None:
     )
     scene.add_spline_catmull_rom(
         "/preview/dcm",
-        data.dcm[:: max(1, len(data.dcm) // 400)].astype(np.float32),
+        data.dcm[:: max(1, len(data.dcm) // SPLINE_POINTS)].astype(np.float32),
         color=DCM_COLOR,
         thickness=3.0,
         thickness_units="screen",
@@ -106,7 +121,7 @@ def draw_preview(scene: viser.SceneApi, data: PreviewData) -> None:
     ground = data.dcm.copy()
     ground[:, 2] = data.soles[0].position[2] + 0.003 if data.soles else 0.003
     scene.add_spline_catmull_rom(
-        "/preview/dcm_ground", ground[:: max(1, len(ground) // 400)].astype(np.float32),
+        "/preview/dcm_ground", ground[:: max(1, len(ground) // SPLINE_POINTS)].astype(np.float32),
         color=(150, 160, 220),
         thickness=2.0, thickness_units="screen",
     )  # fmt: skip
