@@ -162,6 +162,8 @@ def main() -> None:
             next_sample = now + args.sample_s
     first_cycle_min = (args.switch_every / 2 + args.switch_every * (len(OTHER_PRESETS) - 1)
                        + OTHER_RUN_S + args.sample_s) / 60.0  # fmt: skip
+    if first_cycle_min >= args.minutes - 1.0:  # no full round of presets in this run
+        first_cycle_min = 2.0
     summarise(samples, max(2.0, first_cycle_min))
     print(
         f"peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3:.0f} MB; "
