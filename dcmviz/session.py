@@ -141,7 +141,8 @@ class Session:
         self.walker.reset(state)
         self.last_state: MeasuredState = state
         self.last_command: WalkerCommand | None = None
-        self.pushes: list[Push] = list(self.config.pushes)
+        self.pushes: list[Push] = list(self.config.pushes)  # every push of this walk
+        self._pending: list[Push] = list(self.pushes)  # those not over yet (cost per tick)
         self.metrics = Metrics()
         self._tick: Tick | None = None
         self._ticks = 0
@@ -174,6 +175,7 @@ class Session:
             body=body,
         )
         self.pushes.append(push)
+        self._pending.append(push)
         return push
 
     @property
@@ -203,7 +205,9 @@ class Session:
         """One control tick: pushes → walker → backend → metrics."""
         t = self.last_state.t
         forces: dict[str, np.ndarray] = {}
-        for push in self.pushes:
+        if self._pending and any(t >= p.start + p.duration for p in self._pending):
+            self._pending = [p for p in self._pending if t < p.start + p.duration]
+        for push in self._pending:
             f = np.array(push.force_at(t))
             if np.any(f):
                 forces[push.body] = forces.get(push.body, np.zeros(3)) + f
