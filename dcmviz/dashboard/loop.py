@@ -150,6 +150,22 @@ class SimLoop:
 
     # -- the thread -------------------------------------------------------------------------------
     def _run(self) -> None:
+        """The thread: a fault that escapes the loop (even a reset that raises) rebuilds the
+        session from the last configuration instead of ending the simulation."""
+        while not self._stop.is_set():
+            try:
+                self._loop()
+            except Exception as err:  # noqa: BLE001 - the simulation must outlive any fault
+                self.on_event("error", f"Simulation fault ({err!r}); the session restarts.")
+                try:
+                    self.session = self._factory(self.session.config)
+                    self._fallen_at = None
+                    self._publish()
+                except Exception as again:  # noqa: BLE001
+                    self.on_event("error", f"The session could not restart: {again!r}")
+                    self._stop.wait(1.0)
+
+    def _loop(self) -> None:
         wall0, sim0 = time.perf_counter(), self.session.t
         last_publish = 0.0
         while not self._stop.is_set():
