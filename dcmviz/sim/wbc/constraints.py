@@ -119,9 +119,12 @@ class ContactWrenchCone(Constraint):
 
 
 class JointLimits(Constraint):
-    """Joint ranges as soft acceleration bounds: q + q̇ T + ½ q̈ T² stays inside the range
-    shrunk by a margin, i.e. 2 (q_lo - q - q̇ T)/T² ≤ q̈ ≤ 2 (q_hi - q - q̇ T)/T² (soft in daqp,
-    so a joint already beyond its range never makes the QP infeasible)."""
+    """Joint ranges as acceleration bounds: q + q̇ T + ½ q̈ T² stays inside the range shrunk by a
+    margin, i.e. 2 (q_lo - q - q̇ T)/T² ≤ q̈ ≤ 2 (q_hi - q - q̇ T)/T², but never asking a joint to
+    brake (or to come back) harder than its torque can: each bound is kept within ±a_max,
+    a_max = τ_max / M_jj / 2 (the joint's own torque limit and inertia, half of it left for
+    gravity and the rest of the body). A joint that will overshoot anyway is braked as hard as
+    it can instead of making the QP infeasible (soft in daqp as a last resort)."""
 
     soft = True
 
@@ -131,7 +134,9 @@ class JointLimits(Constraint):
         model = robot.pin_model
         self.lower = model.lowerPositionLimit[7:] + margin
         self.upper = model.upperPositionLimit[7:] - margin
+        self.torque_limit = robot.torque_limit
         self.eye = np.eye(robot.nu)
+        self._joints = np.arange(6, layout.nv)
 
     def compute(
         self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
@@ -139,8 +144,9 @@ class JointLimits(Constraint):
         T = self.horizon
         A[:, 6 : self.layout.nv] = self.eye
         ahead = ctx.q[7:] + ctx.v[6:] * T
-        lo[:] = 2.0 * (self.lower - ahead) / (T * T)
-        up[:] = 2.0 * (self.upper - ahead) / (T * T)
+        a_max = 0.5 * self.torque_limit / ctx.M[self._joints, self._joints]
+        lo[:] = np.minimum(2.0 * (self.lower - ahead) / (T * T), a_max)
+        up[:] = np.maximum(2.0 * (self.upper - ahead) / (T * T), -a_max)
         return False
 
 

@@ -22,16 +22,14 @@ class Gains:
     w_force: float = 1000.0
     w_angular_momentum: float = 0.5
     w_base: float = 3.0
-    w_foot: float = 100.0
+    w_foot: float = 10.0  # a foot that cannot follow its path (joint ranges) yields to the CoM
     w_posture: float = 0.05
     w_qdd_reg: float = 1e-5
     w_wrench_reg: float = 1e-4  # on w / m
-    # Joint-range bounds are off by default: on 0.35 m steps the back knee reaches its stop and
-    # MuJoCo's joint limit carries the load (10 steps done, DCM error ≤ 12 cm); with the bounds
-    # the QP refuses the straight knee and Talos falls at t = 3.3 s. Normal steps never get near.
-    joint_limits: bool = False
+    joint_limits: bool = True  # joint ranges as (soft) acceleration bounds in the QP
+    w_joint_limits: float = 1e6  # weight of a joint-range violation (rad/s²) where unavoidable
     joint_limit_horizon: float = 0.05  # s, look-ahead of the joint-range bounds
-    joint_limit_margin: float = 0.02  # rad kept from each end of a joint's range
+    joint_limit_margin: float = 0.0  # rad kept from each end of a joint's range
     friction: float = 0.7  # μ of the pyramid (MuJoCo's floor has 1.0)
     torsion: float = 0.02  # m, |τ_z| ≤ torsion · f_z
     min_normal_force: float = 5.0  # N on a support foot

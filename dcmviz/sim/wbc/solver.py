@@ -36,6 +36,7 @@ from dcmviz.sim.wbc.context import Context, Kinematics
 from dcmviz.sim.wbc.gains import Gains
 from dcmviz.sim.wbc.layout import Layout
 from dcmviz.sim.wbc.tasks import (
+    AnkleStops,
     AngularMomentumTask,
     BaseOrientationTask,
     ContactForceTask,
@@ -70,7 +71,20 @@ class WholeBodyController:
             ContactForceTask(lay, mass, g.w_force),
             AngularMomentumTask(lay, mass, g.k_angular_momentum, g.w_angular_momentum),
             BaseOrientationTask(lay, g.kp_base, g.kd_base, g.w_base),
-            *(FootTask(s, lay, g.kp_foot, g.kd_foot, g.w_foot, g.touchdown_depth) for s in SIDES),
+            *(
+                FootTask(
+                    s,
+                    lay,
+                    g.kp_foot,
+                    g.kd_foot,
+                    g.w_foot,
+                    g.touchdown_depth,
+                    AnkleStops.of(robot, s, g.joint_limit_margin, g.joint_limit_horizon)
+                    if g.joint_limits
+                    else None,
+                )
+                for s in SIDES
+            ),
             PostureTask(robot, lay, g.kp_posture, g.kd_posture, g.w_posture),
         ]
         self.constraints: list[Constraint] = [
@@ -107,6 +121,8 @@ class WholeBodyController:
         for task in self.tasks:
             if task.constant_gram is not None:
                 self._H_constant += task.weight * task.constant_gram
+        # a soft row's violation s costs ½ s²/ρ, the cost of a task of weight 1/ρ (daqp)
+        self._rho_soft = 1.0 / g.w_joint_limits
         self._scale = np.ones(nx)
         self._scale[robot.nv :] = mass
         self._bounds_lo = np.zeros(nx + self.n_rows)
@@ -177,12 +193,16 @@ class WholeBodyController:
         self._bounds_up[:nx] /= d
         H_s, c_s, A_s = H * np.outer(d, d), c * d, self._A * d
         t1 = time.perf_counter()
-        x, _, exitflag, _ = daqp.solve(H_s, c_s, A_s, self._bounds_up, self._bounds_lo, sense)
+        x, _, exitflag, _ = daqp.solve(
+            H_s, c_s, A_s, self._bounds_up, self._bounds_lo, sense, rho_soft=self._rho_soft
+        )
         x = x * d
         t2 = time.perf_counter()
         self.timings["qp_build"] += t1 - t0
         self.timings["qp_solve"] += t2 - t1
-        ok = exitflag == 1 and bool(np.all(np.isfinite(x)))
+        # 1: optimal; 2: optimal with soft constraints (joint ranges) relaxed where nothing
+        # else was feasible — a solution all the same
+        ok = exitflag in (1, 2) and bool(np.all(np.isfinite(x)))
         if ok:
             qdd = x[:nv]
             wr = {s: x[lay.wrench[s]].copy() for s in SIDES}

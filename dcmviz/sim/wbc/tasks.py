@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -88,20 +89,59 @@ class BaseOrientationTask(Task):
         return self.A, self.kp * err - self.kd * ctx.base_omega
 
 
+@dataclass(frozen=True)
+class AnkleStops:
+    """The joints between a shank and its sole (ankle pitch and roll) and where they stop.
+
+    ``v`` are their columns in v (and q̈), ``q`` their entries in q; ``lower``/``upper`` the
+    range shrunk by the joint-limit margin (rad); ``horizon`` the look-ahead (s) of
+    :class:`~dcmviz.sim.wbc.constraints.JointLimits`."""
+
+    v: np.ndarray
+    q: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    horizon: float
+
+    @staticmethod
+    def of(robot: Robot, side: str, margin: float, horizon: float) -> AnkleStops:
+        model = robot.pin_model
+        roll = model.frames[robot.sole_frames[side]].parentJoint
+        joints = [model.parents[roll], roll]
+        v = np.array([model.joints[j].idx_v for j in joints])
+        q = np.array([model.joints[j].idx_q for j in joints])
+        lower = model.lowerPositionLimit[q] + margin
+        upper = model.upperPositionLimit[q] - margin
+        return AnkleStops(v, q, lower, upper, horizon)
+
+
 class FootTask(Task):
     """Sole acceleration J q̈ + J̇ q̇ = a_ff + kp e + kd ė (position and yaw, roll/pitch flat).
 
     A foot scheduled as support that does not touch yet tracks a target ``touchdown_depth``
     below its footstep, so it lands firmly instead of hovering on the floor.
+
+    With ``ankle_stops``, the wanted angular acceleration turns each ankle joint no faster than
+    its range allows (the bounds of the joint-limit constraint): the sole stays as flat as its
+    ankle allows (a swing foot beside a low, wide stance cannot be flat: the G1's ankle roll
+    stops at ±15°) instead of the QP rolling the hips and the base to flatten it.
     """
 
     def __init__(
-        self, side: str, layout: Layout, kp: float, kd: float, weight: float, depth: float
+        self,
+        side: str,
+        layout: Layout,
+        kp: float,
+        kd: float,
+        weight: float,
+        depth: float,
+        ankle_stops: AnkleStops | None = None,
     ) -> None:
         self.side, self.kp, self.kd, self.weight = side, kp, kd, weight
         self.touchdown_depth = depth
         self.A = np.zeros((6, layout.nx))
         self.nv = layout.nv
+        self.ankle_stops = ankle_stops
 
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray] | None:
         if ctx.active[self.side]:
@@ -119,9 +159,29 @@ class FootTask(Task):
         )
         err = pin.log3(_rot_z(target.yaw) @ ctx.sole_rotation[self.side].T)
         b[3:] = self.kp * err + self.kd * (np.array([0.0, 0.0, target.yaw_rate]) - vel[3:])
+        jacobian = ctx.sole_jacobian[self.side]
+        if self.ankle_stops is not None:
+            b[3:] = self._within_stops(ctx, jacobian, b[3:])
         b -= ctx.sole_drift[self.side]
-        self.A[:, : self.nv] = ctx.sole_jacobian[self.side]
+        self.A[:, : self.nv] = jacobian
         return self.A, b
+
+    def _within_stops(self, ctx: Context, jacobian: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+        """``wanted`` (ω̇, world) with its component along each ankle joint's axis (the joint's
+        angular column of the sole Jacobian) limited to the joint acceleration its range allows,
+        2 (q_lo - q - q̇ T)/T² ≤ q̈ ≤ 2 (q_hi - q - q̇ T)/T² (the bounds of JointLimits)."""
+        stops = self.ankle_stops
+        T = stops.horizon
+        ahead = ctx.q[stops.q] + ctx.v[stops.v] * T
+        lowest = 2.0 * (stops.lower - ahead) / (T * T)
+        highest = 2.0 * (stops.upper - ahead) / (T * T)
+        for i, col in enumerate(stops.v):
+            axis = jacobian[3:, col]
+            along = float(wanted @ axis) / float(axis @ axis)
+            allowed = min(max(along, lowest[i]), highest[i])
+            if allowed != along:
+                wanted = wanted + (allowed - along) * axis
+        return wanted
 
 
 class PostureTask(Task):
