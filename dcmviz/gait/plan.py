@@ -323,9 +323,12 @@ def plan_from_config(
     measures); by default from the feet at (0, ±step_width/2, 0) with the CoM Δz_vrp above them.
     """
     feet, steps = plan_footsteps(config.gait)
-    steps = on_terrain(steps, terrain_of(config.terrain))
+    terrain = terrain_of(config.terrain)
+    steps = on_terrain(steps, terrain)
+    if start_feet is None:  # standing on the ground where the plan starts
+        start_feet = dict(zip(feet, on_terrain(tuple(feet.values()), terrain), strict=True))
     return build_plan(
-        feet if start_feet is None else start_feet,
+        start_feet,
         steps,
         timing_of(config.gait),
         config.dcm.b,
