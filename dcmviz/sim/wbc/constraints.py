@@ -72,6 +72,10 @@ class ContactWrenchCone(Constraint):
     """Friction pyramid |f_x|,|f_y| ≤ μ f_z, f_z ≥ f_min, CoP in the sole, |τ_z| ≤ μ_t f_z.
 
     Written in the sole frame (w_local = blockdiag(Rᵀ, Rᵀ) w): CoP x = -τ_y/f_z, y = τ_x/f_z.
+    The torsion a sole can take when its CoP sits on the toe or heel edge (the sole then touches
+    along that edge only, its two corners ±a_y apart) with half of the friction left for the
+    horizontal force: μ_t = μ a_y / 2 (Talos 0.023 m, G1 0.011 m), unless ``gains.torsion``
+    sets it.
     """
 
     rows = 11
@@ -81,8 +85,17 @@ class ContactWrenchCone(Constraint):
         mu = gains.friction
         lx = gains.cop_margin * robot.foot_length / 2
         ly = gains.cop_margin * robot.foot_width / 2
-        mt = gains.torsion
+        mt = gains.torsion if gains.torsion is not None else 0.5 * mu * robot.foot_width / 2
         # rows over local [fx fy fz tx ty tz]
+        if gains.cop_region == "diamond":
+            cop = [[0, 0, -1, sy / ly, sx / lx, 0] for sx in (1, -1) for sy in (1, -1)]
+        else:
+            cop = [
+                [0, 0, -lx, 0, 1, 0],
+                [0, 0, -lx, 0, -1, 0],
+                [0, 0, -ly, 1, 0, 0],
+                [0, 0, -ly, -1, 0, 0],
+            ]
         self.C = np.array(
             [
                 [1, 0, -mu, 0, 0, 0],
@@ -90,10 +103,7 @@ class ContactWrenchCone(Constraint):
                 [0, 1, -mu, 0, 0, 0],
                 [0, -1, -mu, 0, 0, 0],
                 [0, 0, -1, 0, 0, 0],
-                [0, 0, -lx, 0, 1, 0],
-                [0, 0, -lx, 0, -1, 0],
-                [0, 0, -ly, 1, 0, 0],
-                [0, 0, -ly, -1, 0, 0],
+                *cop,
                 [0, 0, -mt, 0, 0, 1],
                 [0, 0, -mt, 0, 0, -1],
             ],

@@ -11,8 +11,10 @@ class Gains:
 
     kp_foot: float = 600.0
     kd_foot: float = 50.0
-    kp_base: float = 300.0
-    kd_base: float = 35.0
+    # a compliant trunk (the base carries the locked torso): it absorbs the swing leg's angular
+    # momentum that the sole's CoP and torsion cannot (G1 0.4 m/s: 0.06 m wide feet)
+    kp_base: float = 30.0
+    kd_base: float = 11.0  # 2 √kp_base, critically damped
     kp_posture: float = 30.0
     kd_posture: float = 10.0
     touchdown_depth: float = 0.01  # m below the footstep for a support foot not yet touching
@@ -31,6 +33,7 @@ class Gains:
     joint_limit_horizon: float = 0.05  # s, look-ahead of the joint-range bounds
     joint_limit_margin: float = 0.0  # rad kept from each end of a joint's range
     friction: float = 0.7  # μ of the pyramid (MuJoCo's floor has 1.0)
-    torsion: float = 0.02  # m, |τ_z| ≤ torsion · f_z
+    torsion: float | None = None  # m, |τ_z| ≤ torsion · f_z (None: from the sole's width)
     min_normal_force: float = 5.0  # N on a support foot
     cop_margin: float = 0.9  # fraction of the half sole used for the CoP
+    cop_region: str = "box"  # "box" (the sole rectangle) or "diamond" (|x|/a_x + |y|/a_y ≤ 1)
