@@ -189,3 +189,24 @@ def test_a_hard_push_is_a_fall_and_reset_stands_again():
     for _ in range(int(1.0 / backend.control_dt)):  # the push was cleared by reset
         state = backend.step(balance_command(backend, state, xi_d, feet))
     assert not backend.fell()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("preset", "speed_m_s"), [("talos_fast.toml", 0.5), ("g1_fast.toml", 0.4)])
+def test_fast_presets_walk_at_speed(preset, speed_m_s):
+    """Issue 9, item 5: ≥ 10 steps without falling at ≥ 0.5 m/s (Talos) / 0.4 m/s (G1). Speed =
+    distance between the mid-feet before the first step and after the last one, over the time
+    from the first lift-off to the last touchdown (the walker's committed footsteps)."""
+    config = load_preset(PRESETS / preset)
+    backend = MujocoBackend(config.robot.model)
+    state = backend.reset()
+    walker = Walker(config, mass=backend.mass, dt=backend.control_dt)
+    plan = walker.reset(state)
+    start = 0.5 * (state.feet["left"] + state.feet["right"])
+    while state.t < plan.t_end + 0.5:
+        state = backend.step(walker.step(state))
+        assert not backend.fell()
+    assert walker.steps_completed >= 10
+    end = 0.5 * (state.feet["left"] + state.feet["right"])
+    walking_s = walker.records[-1].t - plan.swing_window(0)[0]
+    assert np.linalg.norm((end - start)[:2]) / walking_s >= speed_m_s

@@ -87,15 +87,6 @@ class ContactWrenchCone(Constraint):
         ly = gains.cop_margin * robot.foot_width / 2
         mt = gains.torsion if gains.torsion is not None else 0.5 * mu * robot.foot_width / 2
         # rows over local [fx fy fz tx ty tz]
-        if gains.cop_region == "diamond":
-            cop = [[0, 0, -1, sy / ly, sx / lx, 0] for sx in (1, -1) for sy in (1, -1)]
-        else:
-            cop = [
-                [0, 0, -lx, 0, 1, 0],
-                [0, 0, -lx, 0, -1, 0],
-                [0, 0, -ly, 1, 0, 0],
-                [0, 0, -ly, -1, 0, 0],
-            ]
         self.C = np.array(
             [
                 [1, 0, -mu, 0, 0, 0],
@@ -103,7 +94,10 @@ class ContactWrenchCone(Constraint):
                 [0, 1, -mu, 0, 0, 0],
                 [0, -1, -mu, 0, 0, 0],
                 [0, 0, -1, 0, 0, 0],
-                *cop,
+                [0, 0, -lx, 0, 1, 0],
+                [0, 0, -lx, 0, -1, 0],
+                [0, 0, -ly, 1, 0, 0],
+                [0, 0, -ly, -1, 0, 0],
                 [0, 0, -mt, 0, 0, 1],
                 [0, 0, -mt, 0, 0, -1],
             ],

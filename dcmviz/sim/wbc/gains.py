@@ -36,4 +36,3 @@ class Gains:
     torsion: float | None = None  # m, |τ_z| ≤ torsion · f_z (None: from the sole's width)
     min_normal_force: float = 5.0  # N on a support foot
     cop_margin: float = 0.9  # fraction of the half sole used for the CoP
-    cop_region: str = "box"  # "box" (the sole rectangle) or "diamond" (|x|/a_x + |y|/a_y ≤ 1)

@@ -36,8 +36,8 @@ from dcmviz.sim.wbc.context import Context, Kinematics
 from dcmviz.sim.wbc.gains import Gains
 from dcmviz.sim.wbc.layout import Layout
 from dcmviz.sim.wbc.tasks import (
-    AnkleStops,
     AngularMomentumTask,
+    AnkleStops,
     BaseOrientationTask,
     ContactForceTask,
     FootTask,
