@@ -161,10 +161,14 @@ def main(argv: list[str] | None = None) -> int:
         f"(horizontal < {HORIZONTAL_LIMIT_M * 100:.0f} cm, vertical < {VERTICAL_LIMIT_M * 100:.0f}"
         f" cm, final < {FINAL_LIMIT_M * 100:.0f} cm); {wall:.0f} s wall"
     )
-    h = np.array([r.get("horizontal_m", math.nan) for r in results])
-    print(
-        f"  largest horizontal error: median {np.nanmedian(h) * 100:.2f} cm, max {np.nanmax(h) * 100:.2f} cm"
-    )
+    for key, label in (("horizontal_m", "horizontal"), ("vertical_m", "vertical")):
+        e = np.array([r.get(key, math.nan) for r in results]) * 100
+        print(
+            f"  largest {label} error per walk: median {np.nanmedian(e):.2f} cm, "
+            f"90 % {np.nanpercentile(e, 90):.2f} cm, max {np.nanmax(e):.2f} cm"
+        )
+    falls = sum("fell" in r["why"] for r in results)
+    print(f"  falls: {falls}; sim {sum(r.get('sim_s', 0.0) for r in results):.0f} s")
     for r in results:
         if not r["ok"]:
             print(f"  FAIL #{r['index']:3d} {describe(r['sections'])}: {r['why']}")

@@ -287,6 +287,10 @@ class Robot:
         self.dof_adr = np.array(
             [mm.jnt_dofadr[mm.joint(j).id] for j in self.joint_names], dtype=int
         )
+        # the leg joints' block of qpos / qvel as a slice when it is contiguous (it is for Talos and
+        # the G1): a slice copies without the index array
+        self._qpos_index = _as_slice(self.qpos_adr)
+        self._dof_index = _as_slice(self.dof_adr)
         self.sole_sites = {s: mm.site(f"{s}_sole").id for s in SIDES}
         self.sole_geoms = {s: mm.geom(f"{s}_sole").id for s in SIDES}
         self.floor_geom = mm.geom("floor").id
@@ -321,7 +325,7 @@ class Robot:
         q[:3] = qpos[:3]
         q[3:6] = qpos[4:7]
         q[6] = qpos[3]
-        q[7:] = qpos[self.qpos_adr]
+        q[7:] = qpos[self._qpos_index]
         return q
 
     def qpos_mj(self, q: np.ndarray) -> np.ndarray:
@@ -340,7 +344,7 @@ class Robot:
         mujoco.mju_quat2Mat(rot, qpos[3:7])
         v[:3] = rot.reshape(3, 3).T @ qvel[:3]
         v[3:6] = qvel[3:6]
-        v[6:] = qvel[self.dof_adr]
+        v[6:] = qvel[self._dof_index]
         return v
 
     def qvel_mj(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -351,6 +355,13 @@ class Robot:
         qvel[3:6] = v[3:6]
         qvel[self.dof_adr] = v[6:]
         return qvel
+
+
+def _as_slice(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` as a slice if it is a run of consecutive integers, else itself."""
+    if len(index) and np.array_equal(index, np.arange(index[0], index[0] + len(index))):
+        return slice(int(index[0]), int(index[0]) + len(index))
+    return index
 
 
 @functools.cache

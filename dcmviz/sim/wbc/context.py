@@ -41,17 +41,16 @@ class Kinematics:
         self.robot = robot
         self.model = robot.pin_model
         self.data = self.model.createData()
-        self._zero = np.zeros(self.model.nv)
         self._damping = np.zeros(self.model.nv)
         self._damping[6:] = robot.damping
 
     def context(self, q: np.ndarray, v: np.ndarray) -> Context:
         """M, h, CoM, centroidal angular momentum, sole poses/Jacobians/drifts at (q, v)."""
         m, d = self.model, self.data
+        # computeAllTerms also leaves the joints' spatial accelerations for q̈ = 0 in data (data.a:
+        # the drift J̇ q̇); computeCentroidalMomentum refines its CoM and momentum (to 1e-15)
         pin.computeAllTerms(m, d, q, v)
         pin.computeCentroidalMomentum(m, d, q, v)
-        pin.forwardKinematics(m, d, q, v, self._zero)
-        pin.updateFramePlacements(m, d)
         x, y, z, w = q[3:7]  # base rotation from the unit quaternion (faster than data.oMi[1])
         rot = np.array(
             [
@@ -72,7 +71,7 @@ class Kinematics:
             base_omega=rot @ v[3:6],
         )
         for side, fid in self.robot.sole_frames.items():
-            placement = d.oMf[fid]
+            placement = pin.updateFramePlacement(m, d, fid)
             ctx.sole_position[side] = placement.translation.copy()
             ctx.sole_rotation[side] = placement.rotation.copy()
             ctx.sole_jacobian[side] = pin.getFrameJacobian(m, d, fid, _LWA)

@@ -125,6 +125,10 @@ class WholeBodyController:
         self._rho_soft = 1.0 / g.w_joint_limits
         self._scale = np.ones(nx)
         self._scale[robot.nv :] = mass
+        self._scale_outer = np.outer(self._scale, self._scale)
+        self._H_s = np.zeros((nx, nx))  # the QP in scaled variables, rewritten each tick
+        self._c_s = np.zeros(nx)
+        self._A_s = np.zeros((self.n_rows, nx))
         self._bounds_lo = np.zeros(nx + self.n_rows)
         self._bounds_up = np.zeros(nx + self.n_rows)
         self.timings = {"qp_build": 0.0, "qp_solve": 0.0}  # s, summed since the last reset
@@ -191,7 +195,9 @@ class WholeBodyController:
         self._bounds_up[:] = up
         self._bounds_lo[:nx] /= d
         self._bounds_up[:nx] /= d
-        H_s, c_s, A_s = H * np.outer(d, d), c * d, self._A * d
+        H_s = np.multiply(H, self._scale_outer, out=self._H_s)
+        c_s = np.multiply(c, d, out=self._c_s)
+        A_s = np.multiply(self._A, d, out=self._A_s)
         t1 = time.perf_counter()
         x, _, exitflag, _ = daqp.solve(
             H_s, c_s, A_s, self._bounds_up, self._bounds_lo, sense, rho_soft=self._rho_soft

@@ -175,12 +175,16 @@ class FootTask(Task):
         ahead = ctx.q[stops.q] + ctx.v[stops.v] * T
         lowest = 2.0 * (stops.lower - ahead) / (T * T)
         highest = 2.0 * (stops.upper - ahead) / (T * T)
-        for i, col in enumerate(stops.v):
-            axis = jacobian[3:, col]
-            along = float(wanted @ axis) / float(axis @ axis)
-            allowed = min(max(along, lowest[i]), highest[i])
-            if allowed != along:
-                wanted = wanted + (allowed - along) * axis
+        axes = jacobian[3:, stops.v]
+        along = (wanted @ axes) / np.einsum("ij,ij->j", axes, axes)
+        if np.all((along >= lowest) & (along <= highest)):
+            return wanted  # no ankle joint at its stop (most ticks): nothing to limit
+        for i in range(len(stops.v)):  # one joint after the other (the axes need not be square)
+            axis = axes[:, i]
+            along_i = float(wanted @ axis) / float(axis @ axis)
+            allowed = min(max(along_i, lowest[i]), highest[i])
+            if allowed != along_i:
+                wanted = wanted + (allowed - along_i) * axis
         return wanted
 
 
