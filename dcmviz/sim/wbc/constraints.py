@@ -140,7 +140,6 @@ class JointLimits(Constraint):
         self.upper = model.upperPositionLimit[7:] - margin
         self.torque_limit = robot.torque_limit
         self.eye = np.eye(robot.nu)
-        self._joints = np.arange(6, layout.nv)
 
     def compute(
         self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
@@ -148,7 +147,7 @@ class JointLimits(Constraint):
         T = self.horizon
         A[:, 6 : self.layout.nv] = self.eye
         ahead = ctx.q[7:] + ctx.v[6:] * T
-        a_max = 0.5 * self.torque_limit / ctx.M[self._joints, self._joints]
+        a_max = 0.5 * self.torque_limit / np.diagonal(ctx.M)[6:]
         lo[:] = np.minimum(2.0 * (self.lower - ahead) / (T * T), a_max)
         up[:] = np.maximum(2.0 * (self.upper - ahead) / (T * T), -a_max)
         return False

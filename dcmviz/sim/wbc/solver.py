@@ -126,6 +126,17 @@ class WholeBodyController:
         self._scale = np.ones(nx)
         self._scale[robot.nv :] = mass
         self._scale_outer = np.outer(self._scale, self._scale)
+        self._H = np.zeros((nx, nx))  # the QP, rewritten each tick
+        self._c = np.zeros(nx)
+        # each constraint's rows of A, lo, up (views, filled in place each tick) and daqp sense
+        self._rows = []
+        row = 0
+        for con in self.constraints:
+            r = slice(row, row + con.rows)
+            b = slice(nx + row, nx + row + con.rows)
+            sense = 8 if con.soft else 0
+            self._rows.append((con, self._A[r], self._lo[b], self._up[b], self._sense[b], sense))
+            row += con.rows
         self._H_s = np.zeros((nx, nx))  # the QP in scaled variables, rewritten each tick
         self._c_s = np.zeros(nx)
         self._A_s = np.zeros((self.n_rows, nx))
@@ -153,8 +164,10 @@ class WholeBodyController:
         nx, nv = lay.nx, lay.nv
         for s in SIDES:
             ctx.active[s] = bool(in_contact[s] and cmd.support[s])
-        H = self._H_constant.copy()
-        c = np.zeros(nx)
+        H = self._H
+        np.copyto(H, self._H_constant)
+        c = self._c
+        c.fill(0.0)
         for s in SIDES:
             i = lay.wrench[s].start + 3
             R = ctx.sole_rotation[s]
@@ -178,17 +191,12 @@ class WholeBodyController:
             else:
                 lo[sl], up[sl] = 0.0, 0.0
                 sense[sl] = 5
-        row = 0
-        for con in self.constraints:
-            r = slice(row, row + con.rows)  # each constraint rewrites the same entries
-            eq = con.compute(
-                ctx, cmd, self._A[r], lo[nx + r.start : nx + r.stop], up[nx + r.start : nx + r.stop]
-            )
-            if eq:
-                sense[nx + r.start : nx + r.stop] = 5
-            elif getattr(con, "soft", False):
-                sense[nx + r.start : nx + r.stop] = 8
-            row += con.rows
+        for con, A_rows, lo_rows, up_rows, sense_rows, inequality in self._rows:
+            # each constraint rewrites the same entries
+            if con.compute(ctx, cmd, A_rows, lo_rows, up_rows):
+                sense_rows[:] = 5
+            elif inequality:
+                sense_rows[:] = inequality
         # solve in scaled variables x = D x' (wrenches in units of m·1 m/s²): H' = D H D, A' = A D
         d = self._scale
         self._bounds_lo[:] = lo

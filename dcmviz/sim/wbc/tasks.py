@@ -173,11 +173,11 @@ class FootTask(Task):
         stops = self.ankle_stops
         T = stops.horizon
         ahead = ctx.q[stops.q] + ctx.v[stops.v] * T
-        lowest = 2.0 * (stops.lower - ahead) / (T * T)
-        highest = 2.0 * (stops.upper - ahead) / (T * T)
+        lowest = (2.0 * (stops.lower - ahead) / (T * T)).tolist()
+        highest = (2.0 * (stops.upper - ahead) / (T * T)).tolist()
         axes = jacobian[3:, stops.v]
-        along = (wanted @ axes) / np.einsum("ij,ij->j", axes, axes)
-        if np.all((along >= lowest) & (along <= highest)):
+        along = ((wanted @ axes) / (axes * axes).sum(axis=0)).tolist()
+        if all(lo <= a <= hi for lo, a, hi in zip(lowest, along, highest, strict=True)):
             return wanted  # no ankle joint at its stop (most ticks): nothing to limit
         for i in range(len(stops.v)):  # one joint after the other (the axes need not be square)
             axis = axes[:, i]
