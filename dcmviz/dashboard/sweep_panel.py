@@ -49,20 +49,10 @@ def ray_runner() -> Any:
 def partial_result(config: Config, settings: Any, rows: list[dict[str, Any]]) -> dict[str, Any]:
     """The fields of an envelope result that the report's polar plot reads, for the cells that
     finished so far (the plot of a finished sweep uses the sweep's own result)."""
-    from dataclasses import asdict
-
-    from dcmviz.sweep.experiments import envelope_window
+    from dcmviz.sweep.experiments import envelope_header, envelope_window
 
     window = envelope_window(config.replace(pushes=[]), settings)
-    return {
-        "preset": config.name,
-        "robot": config.robot.model,
-        "backend": settings.backend,
-        "settings": asdict(settings),
-        "push_start_s": window.start_s,
-        "swing_side": window.swing_side,
-        "rows": rows,
-    }
+    return {**envelope_header(config, settings, window), "rows": rows}
 
 
 def polar_png(result: dict[str, Any], path: Path) -> np.ndarray:

@@ -190,6 +190,18 @@ def envelope_row(outcome: CellOutcome) -> dict[str, Any]:
     }
 
 
+def envelope_header(config: Config, settings: SweepSettings, window: Any) -> dict[str, Any]:
+    """The fields that name an envelope: preset, robot, backend, settings and the push window."""
+    return {
+        "preset": config.name,
+        "robot": config.robot.model,
+        "backend": settings.backend,
+        "settings": asdict(settings),
+        "push_start_s": window.start_s,
+        "swing_side": window.swing_side,
+    }
+
+
 def envelope(
     config: Config, settings: SweepSettings, execution: Execution | None = None
 ) -> dict[str, Any]:
@@ -200,12 +212,7 @@ def envelope(
     order = {name: i for i, name in enumerate(settings.controllers)}
     rows.sort(key=lambda r: (r["direction_deg"], order[r["controller"]]))
     return {
-        "preset": config.name,
-        "robot": config.robot.model,
-        "backend": settings.backend,
-        "settings": asdict(settings),
-        "push_start_s": window.start_s,
-        "swing_side": window.swing_side,
+        **envelope_header(config, settings, window),
         "single_support_s": [window.lift_s, window.touch_s],
         "run_end_s": window.end_s,
         "resolution_ns": settings.max_impulse_ns / settings.grid / 2**settings.iterations,
