@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import socket
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -11,6 +10,8 @@ import numpy as np
 import pytest
 
 viser = pytest.importorskip("viser")
+
+from helpers import free_port  # noqa: E402
 
 from dcmviz.config import (  # noqa: E402
     MAX_PRESET_BYTES,
@@ -26,12 +27,6 @@ from dcmviz.gait import plan_from_config  # noqa: E402
 from dcmviz.robots import get_spec  # noqa: E402
 
 PRESETS = Path(__file__).resolve().parents[1] / "presets"
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 @pytest.fixture

@@ -7,8 +7,6 @@ go to ``$DCMVIZ_SCREENSHOTS`` (default: a pytest tmp dir).
 from __future__ import annotations
 
 import os
-import socket
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -20,6 +18,8 @@ pytestmark = pytest.mark.browser
 viser = pytest.importorskip("viser")
 sync_api = pytest.importorskip("playwright.sync_api")
 
+from helpers import free_port, wait_for  # noqa: E402
+
 from dcmviz.config import Config, loads_preset  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
 from dcmviz.dashboard.headless import CHROMIUM, launch_chromium  # noqa: E402
@@ -28,21 +28,6 @@ PRESETS = Path(__file__).resolve().parents[1] / "presets"
 
 if not os.path.exists(CHROMIUM):
     pytest.skip("Debian chromium is not installed", allow_module_level=True)
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_for(predicate, timeout: float = 10.0, dt: float = 0.05) -> bool:
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        if predicate():
-            return True
-        time.sleep(dt)
-    return False
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import os
 import re
-import socket
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -23,6 +22,8 @@ pytestmark = pytest.mark.browser
 
 viser = pytest.importorskip("viser")
 sync_api = pytest.importorskip("playwright.sync_api")
+
+from helpers import free_port  # noqa: E402
 
 from dcmviz.config import load_preset  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
@@ -35,12 +36,6 @@ STATUS_T = re.compile(r"t = +(-?\d+\.\d+) s")
 
 if not os.path.exists(CHROMIUM):
     pytest.skip("Debian chromium is not installed", allow_module_level=True)
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def wait_for(predicate, timeout: float = 20.0, dt: float = 0.1) -> bool:

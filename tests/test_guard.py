@@ -8,7 +8,6 @@ subprotocol) to a real server and check that every tab keeps working.
 from __future__ import annotations
 
 import asyncio
-import socket
 import time
 from collections.abc import Callable, Iterator
 
@@ -19,15 +18,11 @@ import zstandard
 viser = pytest.importorskip("viser")
 websockets = pytest.importorskip("websockets")
 
+from helpers import free_port  # noqa: E402
+
 from dcmviz.config import Config  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
 from dcmviz.dashboard.guard import Rejected, clean_value  # noqa: E402
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 @pytest.fixture

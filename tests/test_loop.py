@@ -2,20 +2,11 @@
 
 from __future__ import annotations
 
-import time
+from helpers import wait_for
 
 from dcmviz.config import Config
 from dcmviz.dashboard.loop import SimLoop
 from dcmviz.session import Session
-
-
-def wait_for(condition, timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(0.01)
-    return condition()
 
 
 def test_a_reset_that_raises_rebuilds_the_session() -> None:

@@ -7,7 +7,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import socket
 from collections.abc import Iterator
 
 import pytest
@@ -15,18 +14,14 @@ import pytest
 viser = pytest.importorskip("viser")
 pytest.importorskip("ray")
 
+from helpers import free_port  # noqa: E402
+
 from dcmviz.config import Config  # noqa: E402
 from dcmviz.dashboard.notify import Notifier  # noqa: E402
 from dcmviz.dashboard.sweep_panel import SweepPanel  # noqa: E402
 from dcmviz.sweep import SerialRunner, envelope  # noqa: E402
 
 CONFIG = Config().replace(sim={"backend": "lip"})
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 @pytest.fixture
