@@ -46,11 +46,7 @@ class Snapshot:
     falls: int = 0
     fallen: bool = False
     done: bool = False
-    base_position: np.ndarray | None = None
-    base_wxyz: np.ndarray | None = None
-    joints: dict[str, float] = field(default_factory=dict)
     com: np.ndarray | None = None
-    feet: dict[str, tuple[np.ndarray, float]] = field(default_factory=dict)  # side → (pos, yaw)
     xi: np.ndarray | None = None
     xi_ref: np.ndarray | None = None
     xi_adj: np.ndarray | None = None
@@ -345,16 +341,10 @@ class SimLoop:
             self.snapshot = Snapshot(t=float(s.t), plan=s.plan, plan_version=s.plan_version,
                                      com=_arr(s.last_state.com), **common)  # fmt: skip
             return
-        pose = tick.pose
         self.snapshot = Snapshot(
             t=float(s.t),
             done=tick.done,
-            base_position=None if pose is None else pose.base_position,
-            base_wxyz=None if pose is None else pose.base_wxyz,
-            joints={} if pose is None else pose.joints,
             com=tick.state.com,
-            feet={side: (tick.state.feet[side], float(tick.state.feet_yaw[side]))
-                  for side in tick.state.feet},  # fmt: skip
             xi=tick.command.xi,
             xi_ref=tick.command.xi_ref,
             xi_adj=tick.command.xi_adj,
