@@ -100,6 +100,7 @@ class Walker:
         self.observer = DisturbanceObserver(self.mass, config.control.k_f)
         self.plan: GaitPlan | None = None
         self.plan_version = 0  # changes whenever self.plan does
+        self._gains: dict[tuple[int, int], float] = {}  # A_adj per (plan_version, footstep)
 
     def set_control(self, control: ControlSection, state: MeasuredState) -> None:
         """Adopt new gains from the next tick on, without restarting the walk.
@@ -309,11 +310,18 @@ class Walker:
         For it the condition is taken where the plan ends, where ξ_ref_T equals the final VRP
         (terminal constraint, eq. 17): A_adj = 2.
         """
-        plan = self.plan
-        selection = plan.selection(k)
-        if plan.is_closing_step(k):
-            return 1.0 / float(plan.preview.W_xi_ref_T[-1] @ selection)
-        return adjustment_gain(plan.preview, plan.first_affected_phase(k), selection)
+        key = (self.plan_version, k)
+        if key not in self._gains:  # one value per footstep and plan: cached for the ticks
+            if len(self._gains) > 64:
+                self._gains.clear()
+            plan = self.plan
+            selection = plan.selection(k)
+            if plan.is_closing_step(k):
+                self._gains[key] = 1.0 / float(plan.preview.W_xi_ref_T[-1] @ selection)
+            else:
+                phi = plan.first_affected_phase(k)
+                self._gains[key] = adjustment_gain(plan.preview, phi, selection)
+        return self._gains[key]
 
     def _target(self, k: int, xi_error: np.ndarray, stance: Footstep) -> np.ndarray:
         """Where footstep k lands for the DCM error ``xi_error``: eq. (32), horizontal, reachable."""
@@ -419,10 +427,9 @@ class Walker:
         return self.steps_completed if self.config.gait.mode == "plan" else 0
 
     def nominal_step_position(self, k: int) -> np.ndarray:
-        """Where footstep k of the current plan was before any adjustment."""
-        if self.config.gait.mode == "plan":
-            return np.array(self.nominal_plan.steps[k].position, float)
-        return np.array(self.plan.steps[k].position, float)  # generated from the nominal cursor
+        """Where footstep k of the current plan was before any adjustment (continuous mode: the
+        nominal plan is the horizon as generated at the last replanning)."""
+        return np.array(self.nominal_plan.steps[k].position, float)
 
     @property
     def step_adjustments(self) -> list[dict[str, float]]:
