@@ -279,6 +279,8 @@ class Robot:
             act.ctrllimited = True
             act.ctrlrange = [-lim, lim]
         self.mj_model: mujoco.MjModel = spec.compile()
+        # the uncompiled scene (robot + flat floor); a backend copies it to add terrain
+        self.mj_spec: mujoco.MjSpec = spec
         mm = self.mj_model
         # the sole geoms were given zero mass; URDF inertials are used as they are
         self.qpos_adr = np.array(
