@@ -66,7 +66,9 @@ class MujocoBackend:
         self._contact = {s: False for s in SIDES}
         self._contact_force = {s: 0.0 for s in SIDES}
         self._applied = np.zeros(3)
-        self._sole_bodies = np.array([self.model.geom_bodyid[self.robot.sole_geoms[s]] for s in SIDES])
+        self._sole_bodies = np.array(
+            [self.model.geom_bodyid[self.robot.sole_geoms[s]] for s in SIDES]
+        )
         self.t = 0.0
         self._sink = 0.0
         self.reset()
