@@ -110,10 +110,8 @@ def test_push_on_the_stairs_keeps_adjusted_footsteps_on_their_treads(recovery: s
         assert np.ptp(heights) == 0.0 and r.position[2] == pytest.approx(heights[0])
 
 
-def test_terrain_is_validated_and_the_humanoid_refuses_it_plainly() -> None:
+def test_terrain_is_validated() -> None:
     with pytest.raises(ConfigError, match="terrain.stairs.rise"):
         loads_preset("[terrain.stairs]\nrise = 0.0")
     with pytest.raises(ConfigError, match="step_height"):
         loads_preset("[gait]\nstep_height = 0.05\n[terrain.stairs]\nrise = 0.1")
-    with pytest.raises(ValueError, match="flat floor"):
-        Session(stairs(0.15).replace(sim={"backend": "mujoco"}), backend="mujoco")

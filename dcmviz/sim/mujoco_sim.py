@@ -29,12 +29,11 @@ def terrain_model(robot: Robot, terrain: Terrain) -> mujoco.MjModel:
     (same contact type, affinity and friction)."""
     spec = robot.mj_spec.copy()
     for i, box in enumerate(terrain.boxes):
+        centre, half = box.solid
         geom = spec.worldbody.add_geom(
-            name=f"terrain_{i}",
-            type=mujoco.mjtGeom.mjGEOM_BOX,
-            size=[0.5 * box.size[0], 0.5 * box.size[1], 0.5 * box.top],
+            name=f"terrain_{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=half.tolist()
         )
-        geom.pos = [box.center[0], box.center[1], 0.5 * box.top]
+        geom.pos = centre.tolist()
         geom.quat = [np.cos(0.5 * box.yaw), 0.0, 0.0, np.sin(0.5 * box.yaw)]
         geom.friction = list(TERRAIN_FRICTION)
         geom.contype, geom.conaffinity = 1, 1
