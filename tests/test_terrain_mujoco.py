@@ -14,7 +14,7 @@ from dcmviz.config import Config, loads_preset
 from dcmviz.robots import get_spec
 from dcmviz.robots.geometry import sole_corners
 from dcmviz.session import Session
-from dcmviz.terrain import Terrain, stairs_boxes, terrain_of
+from dcmviz.terrain import terrain_of
 
 RISE, RUN, COUNT, START = 0.15, 0.30, 2, 0.15
 
@@ -87,7 +87,6 @@ def test_talos_walks_a_short_staircase(rise: float) -> None:
     on one tread at its height (measured by MuJoCo), horizontal DCM error below 3 cm."""
     session = Session(short_stairs(rise))
     spec = get_spec("talos")
-    terrain = Terrain(stairs_boxes(START, rise, RUN, COUNT, 1.2, 1.0))
     landed: list[tuple[str, np.ndarray, float]] = []
     seen = [0]
 

@@ -32,9 +32,7 @@ class TerrainView:
         draw_terrain(self.scene, terrain, self.handles)
 
 
-def draw_terrain(
-    scene: viser.SceneApi, terrain: Terrain, handles: list[viser.BoxHandle]
-) -> None:
+def draw_terrain(scene: viser.SceneApi, terrain: Terrain, handles: list[viser.BoxHandle]) -> None:
     """Boxes from the floor to each top face at ``/terrain/<i>``; ``handles`` (the boxes drawn
     before) is updated in place: extra ones are removed."""
     for i, box in enumerate(terrain.boxes):

@@ -32,7 +32,8 @@ def _quintic_coefficients(
 EDGE_CLEARANCE_M = 0.03  # over terrain, the sole passes every edge at least this high
 
 
-RISE_FRACTION = 0.35  # over terrain, the sole rises in the first 35 % of the swing, lowers in the last
+# over terrain, the sole rises in the first 35 % of the swing and lowers in the last 35 %
+RISE_FRACTION = 0.35
 
 
 def _smoothstep5(u: np.ndarray | float) -> tuple:

@@ -8,6 +8,7 @@ joint torques, and MuJoCo integrates ``control_dt / physics_dt`` substeps with t
 from __future__ import annotations
 
 import copy
+import math
 import time
 
 import mujoco
@@ -21,6 +22,9 @@ from dcmviz.state import FootTarget, MeasuredState, WalkerCommand
 from dcmviz.terrain import Terrain
 
 TERRAIN_FRICTION = (1.0, 0.005, 0.0001)  # as the floor's (dcmviz.sim.robots)
+
+# the clock of ``timings``: wall time; bench/sim.py may set CPU time (time.thread_time)
+_clock = time.perf_counter
 
 
 def terrain_model(robot: Robot, terrain: Terrain) -> mujoco.MjModel:
@@ -92,7 +96,9 @@ class MujocoBackend:
         self._contact_force = {s: 0.0 for s in SIDES}
         self._applied = np.zeros(3)
         # by name: the terrain's geoms come before the robot's in a terrain model
-        self._sole_bodies = [self.model.geom_bodyid[self.model.geom(f"{s}_sole").id] for s in SIDES]
+        self._sole_bodies = np.array(
+            [self.model.geom_bodyid[self.model.geom(f"{s}_sole").id] for s in SIDES]
+        )
         self.t = 0.0
         self._sink = 0.0
         self.reset()
@@ -147,12 +153,12 @@ class MujocoBackend:
         return self.measure()
 
     def _update(self) -> Context:
-        t0 = time.perf_counter()
+        t0 = _clock()
         d = self.data
         q = self.robot.q_pin(d.qpos)
         v = self.robot.v_pin(d.qpos, d.qvel)
         self._ctx = self.wbc.kinematics.context(q, v)
-        t1 = time.perf_counter()
+        t1 = _clock()
         self._measure_contacts()
         if self.moment_observer is not None:
             if self._observer_fresh:
@@ -164,7 +170,7 @@ class MujocoBackend:
                 )
             self._ctx.external_moment = self.moment_observer.estimate.copy()
         self.timings["pinocchio"] += t1 - t0
-        self.timings["other"] += time.perf_counter() - t1
+        self.timings["other"] += _clock() - t1
         return self._ctx
 
     def _measure_contacts(self) -> None:
@@ -176,8 +182,9 @@ class MujocoBackend:
         wrenches = self.data.cfrc_ext[self._sole_bodies]
         self._applied = wrenches[:, 3:].sum(axis=0)
         self._contact_moment = wrenches[:, :3].sum(axis=0)
-        self._contact_force = {s: float(wrenches[i, 5]) for i, s in enumerate(SIDES)}
-        self._contact = {s: self._contact_force[s] > 0.1 for s in SIDES}
+        normal = wrenches[:, 5].tolist()
+        self._contact_force = dict(zip(SIDES, normal, strict=True))
+        self._contact = {s: f > 0.1 for s, f in zip(SIDES, normal, strict=True)}
 
     def measure(self) -> MeasuredState:
         """CoM, CoM velocity (Pinocchio on the simulated state), sole poses, measured contact.
@@ -185,10 +192,10 @@ class MujocoBackend:
         ``applied_contact_force`` is the sum of MuJoCo's sole contact forces (world frame, N), the
         force-sensor measurement the observer's eq. (42) uses as the known force."""
         ctx = self._ctx
-        feet_yaw = {
-            s: float(np.arctan2(ctx.sole_rotation[s][1, 0], ctx.sole_rotation[s][0, 0]))
-            for s in SIDES
-        }
+        feet_yaw = {}
+        for s in SIDES:
+            r10, r00 = ctx.sole_rotation[s][1::-1, 0].tolist()
+            feet_yaw[s] = math.atan2(r10, r00)
         return MeasuredState(
             t=self.t,
             com=ctx.com.copy(),
@@ -206,10 +213,10 @@ class MujocoBackend:
         ctx = self._ctx
         sol = self.wbc.solve(ctx, command, self._contact)
         self.data.ctrl[:] = sol.tau
-        t0 = time.perf_counter()
+        t0 = _clock()
         for _ in range(self.n_substeps):
             mujoco.mj_step(self.model, self.data)
-        self.timings["physics"] += time.perf_counter() - t0
+        self.timings["physics"] += _clock() - t0
         self.timings["qp_build"] = self.wbc.timings["qp_build"]
         self.timings["qp_solve"] = self.wbc.timings["qp_solve"]
         self.t += self.control_dt
