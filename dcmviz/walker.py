@@ -95,6 +95,7 @@ class Walker:
         self.spec = get_spec(config.robot.model)
         self.terrain = terrain_of(config.terrain)
         self.mass = float(mass)
+        self._weight = self.mass * GRAVITY * E_Z  # m g e_z (N), once instead of twice a tick
         self.dt = float(dt)
         self.b = config.dcm.b
         self.observer = DisturbanceObserver(self.mass, config.control.k_f)
@@ -172,7 +173,7 @@ class Walker:
         if known is None:
             known = self._last_contact_force
         if cfg.observer:
-            f_hat = self.observer.update(state.com_velocity, known - m * GRAVITY * E_Z, self.dt)
+            f_hat = self.observer.update(state.com_velocity, known - self._weight, self.dt)
         else:
             f_hat = np.zeros(3)
         shift = reference_shift(f_hat, m, b) if cfg.observer else np.zeros(3)
@@ -193,7 +194,7 @@ class Walker:
 
         v_cmd = vrp_tracking(v_ref, xi, xi_adj, cfg.k_xi, b)  # eq. (41) (eq. 24 if ξ_adj = ξ_ref)
         force = com_force(state.com, v_cmd, m, b)  # eq. (4)
-        contact_force = force + m * GRAVITY * E_Z - f_hat
+        contact_force = force + self._weight - f_hat
         self._last_contact_force = contact_force
 
         feet = {}

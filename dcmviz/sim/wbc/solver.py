@@ -103,8 +103,10 @@ class WholeBodyController:
         nx = lay.nx
         self.n_rows = sum(c.rows for c in self.constraints)
         self._A = np.zeros((self.n_rows, nx))
-        self._lo = np.zeros(nx + self.n_rows)  # first nx: simple bounds on x
-        self._up = np.zeros(nx + self.n_rows)
+        # daqp's bounds: first nx simple bounds on the scaled x' (below), then the rows' bounds,
+        # which the constraints write in place (rows are not scaled)
+        self._bounds_lo = np.zeros(nx + self.n_rows)
+        self._bounds_up = np.zeros(nx + self.n_rows)
         self._sense = np.zeros(nx + self.n_rows, dtype=np.int32)
         self._reg = np.full(nx, g.w_qdd_reg)
         for s in SIDES:
@@ -138,15 +140,21 @@ class WholeBodyController:
             r = slice(row, row + con.rows)
             b = slice(nx + row, nx + row + con.rows)
             sense = 8 if con.soft else 0
-            self._rows.append((con, self._A[r], self._lo[b], self._up[b], self._sense[b], sense))
+            self._rows.append(
+                (con, self._A[r], self._bounds_lo[b], self._bounds_up[b], self._sense[b], sense)
+            )
             row += con.rows
         self._weighted: dict[Task, np.ndarray] = {}  # weight Aᵀ of the tasks with a constant A
         self._torque_lo = -robot.torque_limit
         self._H_s = np.zeros((nx, nx))  # the QP in scaled variables, rewritten each tick
         self._c_s = np.zeros(nx)
         self._A_s = np.zeros((self.n_rows, nx))
-        self._bounds_lo = np.zeros(nx + self.n_rows)
-        self._bounds_up = np.zeros(nx + self.n_rows)
+        # simple bounds of x' = x / d: q̈ free (±INF / 1); a wrench free (±INF / m) where its foot
+        # bears weight, else fixed at 0 (0 / m)
+        self._bounds_lo[: robot.nv] = -INF / self._scale[: robot.nv]
+        self._bounds_up[: robot.nv] = INF / self._scale[: robot.nv]
+        self._free_lo = {s: -INF / self._scale[lay.wrench[s]] for s in SIDES}
+        self._free_up = {s: INF / self._scale[lay.wrench[s]] for s in SIDES}
         self.timings = {"qp_build": 0.0, "qp_solve": 0.0}  # s, summed since the last reset
         self.last: Solution | None = None
         self.failures = 0  # QPs that failed (previous torques held)
@@ -166,7 +174,7 @@ class WholeBodyController:
         """τ for this tick; ``in_contact`` is the *measured* contact of each sole."""
         t0 = _clock()
         lay = self.layout
-        nx, nv = lay.nx, lay.nv
+        nv = lay.nv
         for s in SIDES:
             ctx.active[s] = bool(in_contact[s] and cmd.support[s])
         H = self._H
@@ -191,15 +199,14 @@ class WholeBodyController:
             if task.constant_gram is None:
                 H += wA @ A
             c -= wA @ b
-        lo, up, sense = self._lo, self._up, self._sense
-        lo[:nv], up[:nv] = -INF, INF
+        bounds_lo, bounds_up, sense = self._bounds_lo, self._bounds_up, self._sense
         sense[:] = 0
         for s in SIDES:
             sl = lay.wrench[s]
             if ctx.active[s]:
-                lo[sl], up[sl] = -INF, INF
+                bounds_lo[sl], bounds_up[sl] = self._free_lo[s], self._free_up[s]
             else:
-                lo[sl], up[sl] = 0.0, 0.0
+                bounds_lo[sl], bounds_up[sl] = 0.0, 0.0
                 sense[sl] = 5
         for con, A_rows, lo_rows, up_rows, sense_rows, inequality in self._rows:
             # each constraint rewrites the same entries
@@ -209,11 +216,6 @@ class WholeBodyController:
                 sense_rows[:] = inequality
         # solve in scaled variables x = D x' (wrenches in units of m·1 m/s²): H' = D H D, A' = A D
         d = self._scale
-        bounds_lo, bounds_up = self._bounds_lo, self._bounds_up
-        np.divide(lo[:nx], d, out=bounds_lo[:nx])
-        np.divide(up[:nx], d, out=bounds_up[:nx])
-        bounds_lo[nx:] = lo[nx:]
-        bounds_up[nx:] = up[nx:]
         H_s = np.multiply(H, self._scale_outer, out=self._H_s)
         c_s = np.multiply(c, d, out=self._c_s)
         A_s = np.multiply(self._A, d, out=self._A_s)
