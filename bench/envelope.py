@@ -51,14 +51,17 @@ ENVELOPES = {
 
 
 def scaled_envelope(spec) -> Envelope:
-    """Talos's envelope scaled by the robot's standing CoM height, its step widths kept inside
-    the robot's reach (from ``min_step_width_m`` + 1 cm)."""
+    """Talos's envelope scaled by the robot's standing CoM height, its step widths and turns kept
+    inside the robot's reach (from ``min_step_width_m`` + 1 cm; |turn| ≤ ``max_turn_rad``)."""
     talos = ENVELOPES["talos"]
     s = spec.com_height_m / get_spec("talos").com_height_m
     lo_w = max(talos.step_width[0] * s, spec.min_step_width_m + 0.01)
     hi_w = min(max(talos.step_width[1] * s, lo_w + 0.05), spec.max_step_width_m)
+    turn = min(talos.turn[1], spec.max_turn_rad)
     return Envelope(
-        step_length=(talos.step_length[0] * s, talos.step_length[1] * s), step_width=(lo_w, hi_w)
+        step_length=(talos.step_length[0] * s, talos.step_length[1] * s),
+        step_width=(lo_w, hi_w),
+        turn=(-turn, turn),
     )
 
 
@@ -153,7 +156,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--robot", default="talos", help="built-in name or robot file")
     p.add_argument("--n", type=int, default=40, help="random settings")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--sim", choices=("mujoco", "lip"), default="mujoco")
+    p.add_argument(
+        "--sim", nargs="?", const="mujoco", choices=("mujoco", "lip"), default="mujoco",
+        help="backend (a bare --sim is mujoco)",
+    )  # fmt: skip
     p.add_argument("--jobs", type=int, default=2, help="parallel walks (processes)")
     args = p.parse_args(argv)
     try:
@@ -164,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.robot not in ENVELOPES:
         env = scaled_envelope(spec)
         print(f"{spec.name}: envelope step_length {env.step_length[0]:+.3f}…{env.step_length[1]:+.3f} m, "
-              f"step_width {env.step_width[0]:.3f}…{env.step_width[1]:.3f} m, CoM height "
+              f"step_width {env.step_width[0]:.3f}…{env.step_width[1]:.3f} m, turn ±{env.turn[1]:.3f} rad, CoM height "
               f"{spec.min_com_height_m:.3f}–{spec.max_com_height_m:.3f} m")
     rng = np.random.default_rng(args.seed)
     jobs = [(i, draw(args.robot, rng), args.sim) for i in range(args.n)]

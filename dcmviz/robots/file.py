@@ -165,6 +165,7 @@ class WalkingTable(_Table):
     max_step_height_m: float | None = Field(None, ge=0.0, le=1.0)
     max_swing_speed_m_s: float | None = Field(None, gt=0.0, le=20.0)
     mass_kg: float | None = Field(None, gt=0.0, le=1000.0)
+    max_turn_rad: float | None = Field(None, gt=0.0, le=0.5)
 
     @model_validator(mode="after")
     def _ordered(self) -> WalkingTable:

@@ -42,6 +42,8 @@ STEP_WIDTH_PER_LEG = 0.62  # max distance between the feet per m of leg length
 STEP_HEIGHT_PER_LEG = 0.18  # max |Δz| of a step per m of leg length
 FEET_GAP_M = 0.01  # min distance between the soles' inner edges
 FASTEST_SWING_S = 0.5  # the swing foot crosses 2 × max step length in this time at most
+TURN_PER_HIP_YAW = 0.5  # max turn per step per rad of the hip yaw's smaller side of its range
+MAX_TURN_RAD = 0.5  # the preset schema's bound on gait.turn
 # actuator defaults per kg of robot (Talos: 0.05 kg m², 0.2 N m s/rad at 90.27 kg)
 ARMATURE_PER_KG = 0.05 / 90.27
 DAMPING_PER_KG = 0.2 / 90.27
@@ -74,6 +76,8 @@ class Derived:
     min_step_width_m: float
     max_step_height_m: float
     max_swing_speed_m_s: float
+    max_turn_rad: float  # per generated step, from the hip yaw joints' ranges
+    hip_yaw: tuple[str, ...]  # the leg joints with a vertical axis standing
 
 
 @dataclass(frozen=True, eq=False)
@@ -393,6 +397,19 @@ def _derive(model, q_nominal, sole_frames, legs, joint_names, limits, rf) -> Der
             break
         h, q = h - 0.01, q_try
         lowest = h
+    # hip yaw: the leg joints whose axis is vertical standing; a turn needs them both ways
+    pin.computeJointJacobians(model, data, q_nominal)
+    yaw, turn = [], MAX_TURN_RAD
+    for name in joint_names:
+        if not any(name in leg for leg in legs.values()):
+            continue
+        jid = model.getJointId(name)
+        J = pin.getJointJacobian(model, data, jid, pin.LOCAL_WORLD_ALIGNED)
+        axis = J[3:, model.joints[jid].idx_v]  # the joint's axis in the world, standing
+        if abs(axis[2]) > 0.9 * np.linalg.norm(axis):
+            yaw.append(name)
+            lim = limits[name]
+            turn = min(turn, TURN_PER_HIP_YAW * max(min(-lim.lower_rad, lim.upper_rad), 0.0))
     foot_width = rf.feet.left.size[1]
     step_length = STEP_LENGTH_PER_LEG * leg_length
     return Derived(
@@ -409,6 +426,8 @@ def _derive(model, q_nominal, sole_frames, legs, joint_names, limits, rf) -> Der
         min_step_width_m=foot_width + FEET_GAP_M,
         max_step_height_m=STEP_HEIGHT_PER_LEG * leg_length,
         max_swing_speed_m_s=2 * step_length / FASTEST_SWING_S,
+        max_turn_rad=turn,
+        hip_yaw=tuple(yaw),
     )
 
 
@@ -436,6 +455,7 @@ def _spec(rf: RobotFile, d: Derived):
         min_com_height_m=pick("min_com_height_m"),
         max_com_height_m=pick("max_com_height_m"),
         bodies=dict(rf.bodies),
+        max_turn_rad=pick("max_turn_rad"),
     )
     if not spec.min_com_height_m <= spec.com_height_m <= spec.max_com_height_m:
         raise _err(
@@ -603,6 +623,7 @@ def report(rm: RobotModel) -> str:
         f"  leg length {d.leg_length_m:.3f} m; CoM {d.straight_com_height_m:.3f} m above the "
         "soles with straight legs",
         f"  lowest CoM stops at: {d.min_height_reason}",
+        f"  hip yaw joints: {', '.join(d.hip_yaw) or '(none)'}",
     ]
     rows = (
         ("mass_kg", "kg"),
@@ -615,6 +636,7 @@ def report(rm: RobotModel) -> str:
         ("min_step_width_m", "m"),
         ("max_step_height_m", "m"),
         ("max_swing_speed_m_s", "m/s"),
+        ("max_turn_rad", "rad"),
     )
     for key, unit in rows:
         used, derived = getattr(s, key), getattr(d, key)

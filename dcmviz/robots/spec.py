@@ -33,6 +33,7 @@ class RobotSpec:
     min_com_height_m: float  # lowest CoM height above the soles the robot walks at
     max_com_height_m: float  # highest (knees still bent enough to walk)
     bodies: dict[str, str]  # push target name -> link name in the URDF
+    max_turn_rad: float = 0.5  # |yaw| per generated step (gait.turn); 0.5: the schema's bound
 
     @property
     def b_nominal_s(self) -> float:
