@@ -169,9 +169,11 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.robot not in ENVELOPES:
         env = scaled_envelope(spec)
-        print(f"{spec.name}: envelope step_length {env.step_length[0]:+.3f}…{env.step_length[1]:+.3f} m, "
-              f"step_width {env.step_width[0]:.3f}…{env.step_width[1]:.3f} m, turn ±{env.turn[1]:.3f} rad, CoM height "
-              f"{spec.min_com_height_m:.3f}–{spec.max_com_height_m:.3f} m")
+        print(
+            f"{spec.name}: envelope step_length {env.step_length[0]:+.3f}…{env.step_length[1]:+.3f} m, "
+            f"step_width {env.step_width[0]:.3f}…{env.step_width[1]:.3f} m, turn ±{env.turn[1]:.3f} rad, CoM height "
+            f"{spec.min_com_height_m:.3f}–{spec.max_com_height_m:.3f} m"
+        )
     rng = np.random.default_rng(args.seed)
     jobs = [(i, draw(args.robot, rng), args.sim) for i in range(args.n)]
     t0 = time.perf_counter()

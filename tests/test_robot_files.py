@@ -212,11 +212,19 @@ BAD = [
         'link = "right_ankle_roll_link"\noffset = [0.035, 0.0, 0.015]',
         ["feet", "do not touch the ground", "expected"],
     ),
-    ('urdf = "g1_hands.urdf"', 'urdf = "missing.urdf"', ["model.urdf", "missing.urdf", "not found"]),
+    (
+        'urdf = "g1_hands.urdf"',
+        'urdf = "missing.urdf"',
+        ["model.urdf", "missing.urdf", "not found"],
+    ),
     ('urdf = "g1_hands.urdf"', 'urdf = "g1_hands.xml"', ["model.urdf", "MJCF", "expected"]),
     ("size = [0.17, 0.06]", "size = [0.17]", ["feet.left.size", "expected"]),
     ("[bodies]", "[bodys]", ["bodys", "unknown key"]),
-    ('[feet.left]', '[controller]\nkp_feet = 3.0\n\n[feet.left]', ["controller", "kp_feet", "expected"]),
+    (
+        "[feet.left]",
+        "[controller]\nkp_feet = 3.0\n\n[feet.left]",
+        ["controller", "kp_feet", "expected"],
+    ),
     (
         "[posture]",
         "[posture]\nleft_knee_jont = 0.3",

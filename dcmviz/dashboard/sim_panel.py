@@ -5,9 +5,9 @@ from __future__ import annotations
 import viser
 
 from dcmviz.config import Config
-from dcmviz.robots import BUILTIN_ROBOTS
 from dcmviz.dashboard.gui import Controls
 from dcmviz.dashboard.loop import SimLoop
+from dcmviz.robots import BUILTIN_ROBOTS
 
 
 def robot_options(config: Config) -> tuple[str, ...]:

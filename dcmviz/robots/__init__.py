@@ -5,8 +5,8 @@ The MuJoCo model is built in :mod:`dcmviz.sim.robots`.  ``python -m dcmviz.robot
 prints what a robot file derives.
 """
 
-from dcmviz.robots.reach import clamp_to_reach, reach_problem
 from dcmviz.robots.file import BUILTIN_ROBOTS, RobotFileError
+from dcmviz.robots.reach import clamp_to_reach, reach_problem
 from dcmviz.robots.spec import ROBOT_NAMES, SPECS, RobotSpec, get_spec
 
 __all__ = [

@@ -11,7 +11,9 @@ from dcmviz.robots.model import build_model, report
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     if not args or args[0] in ("-h", "--help"):
-        print(f"usage: python -m dcmviz.robots NAME|PATH ...  (built-in: {', '.join(BUILTIN_ROBOTS)})")
+        print(
+            f"usage: python -m dcmviz.robots NAME|PATH ...  (built-in: {', '.join(BUILTIN_ROBOTS)})"
+        )
         return 0 if args else 2
     for model in args:
         try:

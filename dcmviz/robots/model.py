@@ -375,7 +375,11 @@ def _derive(model, q_nominal, sole_frames, legs, joint_names, limits, rf) -> Der
     highest = straight - STRAIGHT_MARGIN * leg_length
     # lowest: squat from the nominal posture in 1 cm steps while the posture stays walkable
     floor = LOWEST_HEIGHT_FRACTION * straight
-    lowest, reason, q = height, f"{LOWEST_HEIGHT_FRACTION:.0%} of the straight-leg height", q_nominal
+    lowest, reason, q = (
+        height,
+        f"{LOWEST_HEIGHT_FRACTION:.0%} of the straight-leg height",
+        q_nominal,
+    )
     problem = _posture_problem(model, data, q_nominal, sole_frames, limits, joint_names, mass)
     if problem:
         raise _err(
@@ -549,7 +553,10 @@ def build_from_file(rf: RobotFile) -> RobotModel:
     data = pm.createData()
     pin.framesForwardKinematics(pm, data, q)
     z = {s: data.oMf[f].translation[2] for s, f in sole_frames.items()}
-    tilt = {s: math.degrees(math.acos(min(1.0, data.oMf[f].rotation[2, 2]))) for s, f in sole_frames.items()}
+    tilt = {
+        s: math.degrees(math.acos(min(1.0, data.oMf[f].rotation[2, 2])))
+        for s, f in sole_frames.items()
+    }
     if abs(z["left"] - z["right"]) > 0.005 or max(tilt.values()) > 3.0:
         raise _err(
             rf,
