@@ -288,3 +288,34 @@ def test_lateral_push_scaled_to_the_robots_mass_is_survived(preset):
     fell, walker = _walk(config, config.sim.duration)
     assert not fell
     assert walker.steps_completed == config.gait.n_steps
+
+
+def test_dashboard_shows_a_presets_robot_file_in_its_dropdown(tmp_path):
+    """Loading a preset whose robot is a file adds it to the robot dropdown; the sliders, push
+    bodies and the walk follow that robot."""
+    import viser
+    from helpers import free_port
+
+    from dcmviz.config import Config
+    from dcmviz.dashboard import Dashboard
+
+    path = str(_write_robot(tmp_path))
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    dash = Dashboard(server, Config().replace(sim={"backend": "lip"}), start=False)
+    try:
+        dropdown = dash.controls.handles[("robot", "model")]
+        assert tuple(dropdown.options) == BUILTIN_ROBOTS
+        config = config_from_dict(
+            {"robot": {"model": path}, "dcm": {"b": 0.26}, "gait": {"step_width": 0.24},
+             "sim": {"backend": "lip"}}
+        )  # fmt: skip
+        assert dash.editor.apply_config(config)
+        dash.loop._handle_commands()
+        assert tuple(dropdown.options) == (*BUILTIN_ROBOTS, path) and dropdown.value == path
+        lo, hi = get_spec(path).b_range_s
+        b = dash.controls.handles[("dcm", "b")]
+        assert lo - 5e-4 <= b.min < b.max <= hi + 5e-4  # the b slider spans the file's range
+        assert dash.loop.session.config.robot.model == path
+    finally:
+        dash.stop()
+        server.stop()
