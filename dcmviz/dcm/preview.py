@@ -118,6 +118,7 @@ class PhaseSchedule:
         self._centred = (~closed).tolist()
         self._p_dot = self._p_dot_coefficients[:, ::-1].tolist()
         self._p_T_list = self._p_T.tolist()
+        self._xi_ref_T_rows: dict[int, NDArray[np.float64]] = {}  # xi_ref_T_row cache
 
     def sample_p(self, phi: NDArray, t_phi: NDArray, T: NDArray) -> NDArray[np.float64]:
         """p(t) of the module docstring (σ(t) or β(t)) at local times t_φ of phases φ."""
@@ -221,13 +222,17 @@ class PhaseSchedule:
         = exp(−(S_k − S_a)/b), row[φ]_j = G(φ+1, j) α_0,j + G(φ+1, j−1) β_0,j−1 for the
         phases j > φ, and the terminal constraint (17) adds G(φ+1, n_φ) to the last waypoint.
         """
-        a = phi + 1
-        S = self.boundaries
-        G = np.exp((S[a] - S[a:]) / self.b)  # G(a, j) for j = a … n_φ
-        row = np.zeros(self.n_waypoints)
-        row[a:-1] = G[:-1] * self.alpha_0[a:]
-        row[-1] = G[-1]  # terminal constraint (17)
-        row[a + 1 :] += G[:-1] * self.beta_0[a:]
+        cache = self._xi_ref_T_rows
+        row = cache.get(phi)
+        if row is None:  # one row per phase, read by every tick of that phase: cached, read-only
+            a = phi + 1
+            S = self.boundaries
+            G = np.exp((S[a] - S[a:]) / self.b)  # G(a, j) for j = a … n_φ
+            row = np.zeros(self.n_waypoints)
+            row[a:-1] = G[:-1] * self.alpha_0[a:]
+            row[-1] = G[-1]  # terminal constraint (17)
+            row[a + 1 :] += G[:-1] * self.beta_0[a:]
+            cache[phi] = row = _read_only(row)
         return row
 
     def first_xi_ref_0_row(self) -> NDArray[np.float64]:

@@ -18,6 +18,7 @@ A :class:`GaitPlan` is immutable; :meth:`GaitPlan.with_step` returns the plan wi
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -92,11 +93,33 @@ class GaitPlan:
         return self.preview.durations
 
     def selection(self, k: int) -> np.ndarray:
-        """S_adj of eq. (29) for footstep k as scalar weights (n_wp,); the 3-D matrix is kron(·, I)."""
-        s = np.zeros(len(self.preview.waypoints))
-        for i, w in self.step_waypoint_weights[k].items():
-            s[i] = w
-        return s
+        """S_adj of eq. (29) for footstep k as scalar weights (n_wp,); the 3-D matrix is kron(·, I).
+
+        Read-only, built once per plan and footstep (the walker reads it every tick)."""
+        return self._selections[k]
+
+    @cached_property
+    def _selections(self) -> tuple[np.ndarray, ...]:
+        n_wp = len(self.preview.waypoints)
+        rows = []
+        for weights in self.step_waypoint_weights:
+            s = np.zeros(n_wp)
+            for i, w in weights.items():
+                s[i] = w
+            s.flags.writeable = False
+            rows.append(s)
+        return tuple(rows)
+
+    @cached_property
+    def _next_ss_step(self) -> tuple[int | None, ...]:
+        """Per phase: the footstep of the first single-support phase at or after it, or None."""
+        out: list[int | None] = [None] * len(self.phase_kind)
+        following = None
+        for p in range(len(self.phase_kind) - 1, -1, -1):
+            if self.phase_kind[p] == "ss":
+                following = self.phase_step[p]
+            out[p] = following
+        return tuple(out)
 
     def stance_for(self, k: int) -> Footstep:
         """The foot that stands while footstep k swings."""
@@ -162,10 +185,7 @@ class GaitPlan:
         if local < 0.0 or local >= self.preview.duration:
             return None
         phase, _ = self.preview.phase_at(local)
-        for p in range(int(phase), len(self.phase_kind)):
-            if self.phase_kind[p] == "ss":
-                return self.phase_step[p]
-        return None
+        return self._next_ss_step[int(phase)]
 
     def swing_window(self, k: int) -> tuple[float, float]:
         """Global lift-off and touchdown times of step k."""

@@ -43,8 +43,9 @@ class FloatingBaseDynamics(Constraint):
         nv = self.layout.nv
         A[:, :nv] = ctx.M[:6]
         for s in SIDES:
-            A[:, self.layout.wrench[s]] = -ctx.sole_jacobian[s][:, :6].T
-        lo[:] = up[:] = -ctx.h[:6]
+            np.negative(ctx.sole_jacobian[s][:, :6].T, out=A[:, self.layout.wrench[s]])
+        np.negative(ctx.h[:6], out=lo)
+        up[:] = lo
         return True
 
 
@@ -140,16 +141,20 @@ class JointLimits(Constraint):
         self.upper = model.upperPositionLimit[7:] - margin
         self.torque_limit = robot.torque_limit
         self.eye = np.eye(robot.nu)
+        self._filled: np.ndarray | None = None  # the rows A that hold the identity already
 
     def compute(
         self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
     ) -> bool:
         T = self.horizon
-        A[:, 6 : self.layout.nv] = self.eye
+        if A is not self._filled:  # the same rows every tick: the identity is written once
+            A[:, 6 : self.layout.nv] = self.eye
+            self._filled = A
         ahead = ctx.q[7:] + ctx.v[6:] * T
         a_max = 0.5 * self.torque_limit / np.diagonal(ctx.M)[6:]
-        lo[:] = np.minimum(2.0 * (self.lower - ahead) / (T * T), a_max)
-        up[:] = np.maximum(2.0 * (self.upper - ahead) / (T * T), -a_max)
+        TT = T * T
+        np.minimum(2.0 * (self.lower - ahead) / TT, a_max, out=lo)
+        np.maximum(2.0 * (self.upper - ahead) / TT, np.negative(a_max, out=a_max), out=up)
         return False
 
 
@@ -158,6 +163,7 @@ class TorqueLimits(Constraint):
 
     def __init__(self, robot: Robot, layout: Layout) -> None:
         self.layout, self.limit = layout, robot.torque_limit
+        self._lower = -robot.torque_limit
         self.rows = robot.nu
 
     def compute(
@@ -165,7 +171,8 @@ class TorqueLimits(Constraint):
     ) -> bool:
         A[:, : self.layout.nv] = ctx.M[6:]
         for s in SIDES:
-            A[:, self.layout.wrench[s]] = -ctx.sole_jacobian[s][:, 6:].T
-        lo[:] = -self.limit - ctx.h[6:]
-        up[:] = self.limit - ctx.h[6:]
+            np.negative(ctx.sole_jacobian[s][:, 6:].T, out=A[:, self.layout.wrench[s]])
+        h = ctx.h[6:]
+        np.subtract(self._lower, h, out=lo)
+        np.subtract(self.limit, h, out=up)
         return False

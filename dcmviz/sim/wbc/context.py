@@ -43,6 +43,7 @@ class Kinematics:
         self.data = self.model.createData()
         self._damping = np.zeros(self.model.nv)
         self._damping[6:] = robot.damping
+        self._sole_frames = list(robot.sole_frames.items())
 
     def context(self, q: np.ndarray, v: np.ndarray) -> Context:
         """M, h, CoM, centroidal angular momentum, sole poses/Jacobians/drifts at (q, v)."""
@@ -51,7 +52,7 @@ class Kinematics:
         # the drift J̇ q̇); computeCentroidalMomentum refines its CoM and momentum (to 1e-15)
         pin.computeAllTerms(m, d, q, v)
         pin.computeCentroidalMomentum(m, d, q, v)
-        x, y, z, w = q[3:7]  # base rotation from the unit quaternion (faster than data.oMi[1])
+        x, y, z, w = q[3:7].tolist()  # base rotation from the unit quaternion (faster than oMi[1])
         rot = np.array(
             [
                 [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
@@ -59,22 +60,29 @@ class Kinematics:
                 [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
             ]
         )
-        ctx = Context(
-            q=q,
-            v=v,
-            M=d.M.copy(),
-            h=d.nle + self._damping * v,
-            com=d.com[0].copy(),
-            com_velocity=d.vcom[0].copy(),
-            angular_momentum=d.hg.angular.copy(),
-            base_rotation=rot,
-            base_omega=rot @ v[3:6],
+        position, rotation, jacobian, velocity, drift = {}, {}, {}, {}, {}
+        for side, fid in self._sole_frames:
+            placement = pin.updateFramePlacement(m, d, fid)  # a copy of data.oMf[fid]
+            position[side] = placement.translation
+            rotation[side] = placement.rotation
+            jacobian[side] = pin.getFrameJacobian(m, d, fid, _LWA)
+            velocity[side] = pin.getFrameVelocity(m, d, fid, _LWA).vector  # owns its Motion
+            drift[side] = pin.getFrameClassicalAcceleration(m, d, fid, _LWA).vector
+        return Context(
+            q,
+            v,
+            d.M.copy(),
+            d.nle + self._damping * v,
+            d.com[0].copy(),
+            d.vcom[0].copy(),
+            d.hg.angular.copy(),
+            rot,
+            rot @ v[3:6],
+            position,
+            rotation,
+            velocity,
+            jacobian,
+            drift,
+            {},
+            np.zeros(3),
         )
-        for side, fid in self.robot.sole_frames.items():
-            placement = pin.updateFramePlacement(m, d, fid)
-            ctx.sole_position[side] = placement.translation.copy()
-            ctx.sole_rotation[side] = placement.rotation.copy()
-            ctx.sole_jacobian[side] = pin.getFrameJacobian(m, d, fid, _LWA)
-            ctx.sole_velocity[side] = pin.getFrameVelocity(m, d, fid, _LWA).vector.copy()
-            ctx.sole_drift[side] = pin.getFrameClassicalAcceleration(m, d, fid, _LWA).vector.copy()
-        return ctx

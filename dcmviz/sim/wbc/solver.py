@@ -46,6 +46,9 @@ from dcmviz.sim.wbc.tasks import (
 )
 from dcmviz.state import WalkerCommand
 
+# the clock of ``timings``: wall time; bench/sim.py may set CPU time (time.thread_time)
+_clock = time.perf_counter
+
 
 @dataclass
 class Solution:
@@ -137,6 +140,8 @@ class WholeBodyController:
             sense = 8 if con.soft else 0
             self._rows.append((con, self._A[r], self._lo[b], self._up[b], self._sense[b], sense))
             row += con.rows
+        self._weighted: dict[Task, np.ndarray] = {}  # weight Aᵀ of the tasks with a constant A
+        self._torque_lo = -robot.torque_limit
         self._H_s = np.zeros((nx, nx))  # the QP in scaled variables, rewritten each tick
         self._c_s = np.zeros(nx)
         self._A_s = np.zeros((self.n_rows, nx))
@@ -159,7 +164,7 @@ class WholeBodyController:
 
     def solve(self, ctx: Context, cmd: WalkerCommand, in_contact: dict[str, bool]) -> Solution:
         """τ for this tick; ``in_contact`` is the *measured* contact of each sole."""
-        t0 = time.perf_counter()
+        t0 = _clock()
         lay = self.layout
         nx, nv = lay.nx, lay.nv
         for s in SIDES:
@@ -172,12 +177,17 @@ class WholeBodyController:
             i = lay.wrench[s].start + 3
             R = ctx.sole_rotation[s]
             H[i : i + 3, i : i + 3] += self._wrench_reg * (R @ self._moment_metric @ R.T)
+        weighted = self._weighted
         for task in self.tasks:
             out = task.compute(ctx, cmd)
             if out is None:
                 continue
             A, b = out
-            wA = task.weight * A.T
+            wA = weighted.get(task) if task.constant_matrix else None
+            if wA is None:  # wAᵀ of a constant A is computed once
+                wA = task.weight * A.T
+                if task.constant_matrix:
+                    weighted[task] = wA
             if task.constant_gram is None:
                 H += wA @ A
             c -= wA @ b
@@ -199,31 +209,33 @@ class WholeBodyController:
                 sense_rows[:] = inequality
         # solve in scaled variables x = D x' (wrenches in units of m·1 m/s²): H' = D H D, A' = A D
         d = self._scale
-        self._bounds_lo[:] = lo
-        self._bounds_up[:] = up
-        self._bounds_lo[:nx] /= d
-        self._bounds_up[:nx] /= d
+        bounds_lo, bounds_up = self._bounds_lo, self._bounds_up
+        np.divide(lo[:nx], d, out=bounds_lo[:nx])
+        np.divide(up[:nx], d, out=bounds_up[:nx])
+        bounds_lo[nx:] = lo[nx:]
+        bounds_up[nx:] = up[nx:]
         H_s = np.multiply(H, self._scale_outer, out=self._H_s)
         c_s = np.multiply(c, d, out=self._c_s)
         A_s = np.multiply(self._A, d, out=self._A_s)
-        t1 = time.perf_counter()
+        t1 = _clock()
         x, _, exitflag, _ = daqp.solve(
             H_s, c_s, A_s, self._bounds_up, self._bounds_lo, sense, rho_soft=self._rho_soft
         )
         x = x * d
-        t2 = time.perf_counter()
+        t2 = _clock()
         self.timings["qp_build"] += t1 - t0
         self.timings["qp_solve"] += t2 - t1
         # 1: optimal; 2: optimal with soft constraints (joint ranges) relaxed where nothing
         # else was feasible — a solution all the same
-        ok = exitflag in (1, 2) and bool(np.all(np.isfinite(x)))
+        ok = exitflag in (1, 2) and bool(np.isfinite(x).all())
         if ok:
             qdd = x[:nv]
             wr = {s: x[lay.wrench[s]].copy() for s in SIDES}
             tau = ctx.M[6:] @ qdd + ctx.h[6:]
             for s in SIDES:
                 tau -= ctx.sole_jacobian[s][:, 6:].T @ wr[s]
-            tau = np.clip(tau, -self.robot.torque_limit, self.robot.torque_limit)
+            np.maximum(tau, self._torque_lo, out=tau)  # = np.clip, without its overhead
+            np.minimum(tau, self.robot.torque_limit, out=tau)
             self._held_tau = tau
         else:
             self.failures += 1

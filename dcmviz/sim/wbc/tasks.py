@@ -27,6 +27,7 @@ def _rot_z(yaw: float) -> np.ndarray:
 class Task(ABC):
     weight: float = 1.0
     constant_gram: np.ndarray | None = None  # AᵀA if it does not depend on the state
+    constant_matrix: bool = False  # compute() always returns the same A (only b changes)
 
     @abstractmethod
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray] | None:
@@ -43,6 +44,7 @@ class ContactForceTask(Task):
             self.A[:, layout.wrench[s].start : layout.wrench[s].start + 3] = np.eye(3) / mass
         self.mass = mass
         self.constant_gram = self.A.T @ self.A
+        self.constant_matrix = True
 
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
         return self.A, np.asarray(cmd.contact_force, dtype=float) / self.mass
@@ -63,9 +65,11 @@ class AngularMomentumTask(Task):
 
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
         A, inv_m = self.A, 1.0 / self.mass
+        cx, cy, cz = ctx.com.tolist()
         for s in SIDES:
             i = self.layout.wrench[s].start
-            rx, ry, rz = (ctx.sole_position[s] - ctx.com) * inv_m
+            px, py, pz = ctx.sole_position[s].tolist()
+            rx, ry, rz = (px - cx) * inv_m, (py - cy) * inv_m, (pz - cz) * inv_m
             A[0, i + 1], A[0, i + 2] = -rz, ry  # [r]× f
             A[1, i], A[1, i + 2] = rz, -rx
             A[2, i], A[2, i + 1] = -ry, rx
@@ -114,6 +118,16 @@ class AnkleStops:
         upper = model.upperPositionLimit[q] - margin
         return AnkleStops(v, q, lower, upper, horizon)
 
+    @property
+    def items(self) -> list[tuple[int, int, float, float]]:
+        """Per joint (q index, v index, lower, upper) as plain numbers, for the per-tick path."""
+        items = self.__dict__.get("_items")
+        if items is None:
+            items = list(zip(self.q.tolist(), self.v.tolist(), self.lower.tolist(),
+                             self.upper.tolist(), strict=True))  # fmt: skip
+            object.__setattr__(self, "_items", items)
+        return items
+
 
 class FootTask(Task):
     """Sole acceleration J q̈ + J̇ q̇ = a_ff + kp e + kd ė (position and yaw, roll/pitch flat).
@@ -147,18 +161,28 @@ class FootTask(Task):
         if ctx.active[self.side]:
             return None  # held by the stance constraint
         target = cmd.feet[self.side]
-        position = np.array(target.position, dtype=float)
+        # per component in plain floats (the same operations, in the same order, as on arrays)
+        px, py, pz = np.asarray(target.position, dtype=float).tolist()
         if cmd.support[self.side]:  # scheduled down but not touching: keep going down
-            position[2] -= self.touchdown_depth
-        b = np.empty(6)
-        vel = ctx.sole_velocity[self.side]
-        b[:3] = (
-            np.asarray(target.acceleration)
-            + self.kp * (position - ctx.sole_position[self.side])
-            + self.kd * (np.asarray(target.velocity) - vel[:3])
-        )
+            pz -= self.touchdown_depth
+        kp, kd = self.kp, self.kd
+        sx, sy, sz = ctx.sole_position[self.side].tolist()
+        wx, wy, wz, ox, oy, oz = ctx.sole_velocity[self.side].tolist()
+        ax, ay, az = np.asarray(target.acceleration, dtype=float).tolist()
+        ux, uy, uz = np.asarray(target.velocity, dtype=float).tolist()
         err = pin.log3(_rot_z(target.yaw) @ ctx.sole_rotation[self.side].T)
-        b[3:] = self.kp * err + self.kd * (np.array([0.0, 0.0, target.yaw_rate]) - vel[3:])
+        ex, ey, ez = err.tolist()
+        yaw_rate = float(target.yaw_rate)
+        b = np.array(
+            [
+                ax + kp * (px - sx) + kd * (ux - wx),
+                ay + kp * (py - sy) + kd * (uy - wy),
+                az + kp * (pz - sz) + kd * (uz - wz),
+                kp * ex + kd * (0.0 - ox),
+                kp * ey + kd * (0.0 - oy),
+                kp * ez + kd * (yaw_rate - oz),
+            ]
+        )
         jacobian = ctx.sole_jacobian[self.side]
         if self.ankle_stops is not None:
             b[3:] = self._within_stops(ctx, jacobian, b[3:])
@@ -172,9 +196,13 @@ class FootTask(Task):
         2 (q_lo - q - q̇ T)/T² ≤ q̈ ≤ 2 (q_hi - q - q̇ T)/T² (the bounds of JointLimits)."""
         stops = self.ankle_stops
         T = stops.horizon
-        ahead = ctx.q[stops.q] + ctx.v[stops.v] * T
-        lowest = (2.0 * (stops.lower - ahead) / (T * T)).tolist()
-        highest = (2.0 * (stops.upper - ahead) / (T * T)).tolist()
+        TT = T * T
+        q, v = ctx.q, ctx.v
+        lowest, highest = [], []
+        for iq, iv, lo, hi in stops.items:  # 2 (q_lo − (q + q̇ T)) / T², as floats
+            ahead = q.item(iq) + v.item(iv) * T
+            lowest.append(2.0 * (lo - ahead) / TT)
+            highest.append(2.0 * (hi - ahead) / TT)
         axes = jacobian[3:, stops.v]
         along = ((wanted @ axes) / (axes * axes).sum(axis=0)).tolist()
         if all(lo <= a <= hi for lo, a, hi in zip(lowest, along, highest, strict=True)):
@@ -197,6 +225,7 @@ class PostureTask(Task):
         self.A[:, 6 : layout.nv] = np.eye(robot.nu)
         self.q_nominal = robot.q_nominal[7:].copy()
         self.constant_gram = self.A.T @ self.A
+        self.constant_matrix = True
 
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
         return self.A, self.kp * (self.q_nominal - ctx.q[7:]) - self.kd * ctx.v[6:]
