@@ -172,6 +172,12 @@ def test_pinned_numbers_are_close_to_the_derived_ones():
     assert d.foot_spacing_m == pytest.approx(s.foot_spacing_m, abs=0.001)
     assert d.max_com_height_m == pytest.approx(s.max_com_height_m, abs=0.01)
     assert d.max_step_length_m == pytest.approx(s.max_step_length_m, abs=0.01)
+    assert d.leg_length_m == pytest.approx(s.leg_length_m, abs=0.005)
+    g1 = get_spec("g1")  # the hip–ankle distance at the (pinned) highest CoM, from the model
+    d = build_model("g1").derived
+    assert g1.max_com_height_m - d.hip_below_com_m - d.ankle_above_sole_m == pytest.approx(
+        g1.leg_length_m, abs=0.001
+    )
 
 
 def test_standing_posture_is_solved_for_a_requested_com_height(tmp_path):

@@ -166,6 +166,7 @@ class WalkingTable(_Table):
     max_swing_speed_m_s: float | None = Field(None, gt=0.0, le=20.0)
     mass_kg: float | None = Field(None, gt=0.0, le=1000.0)
     max_turn_rad: float | None = Field(None, gt=0.0, le=0.5)
+    leg_length_m: float | None = Field(None, gt=0.0, le=3.0)  # hip–ankle at max_com_height_m
 
     @model_validator(mode="after")
     def _ordered(self) -> WalkingTable:

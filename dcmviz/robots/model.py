@@ -37,7 +37,7 @@ JOINT_MARGIN_RAD = 0.05  # a walkable posture keeps each leg joint this far insi
 TORQUE_FRACTION = 0.9  # … and holds the whole weight on one leg with ≤ this fraction of each limit
 LOWEST_HEIGHT_FRACTION = 0.8  # … with the CoM at least this fraction of the straight-leg height
 STRAIGHT_MARGIN = 0.04  # highest CoM: straight-leg height − this × leg length (knees still bent)
-STEP_LENGTH_PER_LEG = 0.55  # max |Δx| of a step per m of leg length (Talos 0.45 m / 0.81 m)
+STEP_LENGTH_PER_LEG = 0.55  # max |Δx| of a step per m of hip → sole (Talos 0.45 m / 0.81 m)
 STEP_WIDTH_PER_LEG = 0.62  # max distance between the feet per m of leg length
 STEP_HEIGHT_PER_LEG = 0.18  # max |Δz| of a step per m of leg length
 FEET_GAP_M = 0.01  # min distance between the soles' inner edges
@@ -66,7 +66,10 @@ class Derived:
     mass_kg: float
     com_height_m: float  # CoM above the soles in the nominal posture
     foot_spacing_m: float  # lateral distance of the sole centres in the nominal posture
-    leg_length_m: float  # first leg joint → sole centre with the leg joints at zero
+    hip_sole_m: float  # first leg joint → sole centre with the leg joints at zero (reach scale)
+    hip_below_com_m: float  # hip roll joint below the CoM, standing
+    ankle_above_sole_m: float  # ankle pitch joint above the sole, standing
+    leg_length_m: float  # hip–ankle distance standing at max_com_height_m (dcmviz.gait.height)
     straight_com_height_m: float  # CoM above the soles with the leg joints at zero
     min_com_height_m: float
     max_com_height_m: float
@@ -370,7 +373,7 @@ def _derive(model, q_nominal, sole_frames, legs, joint_names, limits, rf) -> Der
     for side, leg in legs.items():
         hip = data.oMi[model.getJointId(leg[0])].translation
         lengths.append(float(np.linalg.norm(hip - data.oMf[sole_frames[side]].translation)))
-    leg_length = float(np.mean(lengths))
+    leg_length = float(np.mean(lengths))  # hip → sole, the scale of the reach rules
     straight = _com_height(model, data, q0, sole_frames)
     highest = straight - STRAIGHT_MARGIN * leg_length
     # lowest: squat from the nominal posture in 1 cm steps while the posture stays walkable
@@ -402,25 +405,45 @@ def _derive(model, q_nominal, sole_frames, legs, joint_names, limits, rf) -> Der
         h, q = h - 0.01, q_try
         lowest = h
     # hip yaw: the leg joints whose axis is vertical standing; a turn needs them both ways
+    pin.framesForwardKinematics(model, data, q_nominal)
     pin.computeJointJacobians(model, data, q_nominal)
-    yaw, turn = [], MAX_TURN_RAD
-    for name in joint_names:
-        if not any(name in leg for leg in legs.values()):
-            continue
+    com_z = float(pin.centerOfMass(model, data, q_nominal)[2])
+
+    def axis(name: str) -> np.ndarray:  # the joint's axis in the world, standing
         jid = model.getJointId(name)
-        J = pin.getJointJacobian(model, data, jid, pin.LOCAL_WORLD_ALIGNED)
-        axis = J[3:, model.joints[jid].idx_v]  # the joint's axis in the world, standing
-        if abs(axis[2]) > 0.9 * np.linalg.norm(axis):
-            yaw.append(name)
-            lim = limits[name]
-            turn = min(turn, TURN_PER_HIP_YAW * max(min(-lim.lower_rad, lim.upper_rad), 0.0))
+        a = pin.getJointJacobian(model, data, jid, pin.LOCAL_WORLD_ALIGNED)[
+            3:, model.joints[jid].idx_v
+        ]
+        return a / np.linalg.norm(a)
+
+    # hip yaw: the leg joints whose axis is vertical standing; a turn needs them both ways
+    yaw, turn = [], MAX_TURN_RAD
+    hip_below, ankle_above = [], []
+    for side, leg in legs.items():
+        axes = {name: axis(name) for name in leg}
+        for name in leg:
+            if abs(axes[name][2]) > 0.9:
+                yaw.append(name)
+                lim = limits[name]
+                turn = min(turn, TURN_PER_HIP_YAW * max(min(-lim.lower_rad, lim.upper_rad), 0.0))
+        # hip: the most roll-like of the first 3 leg joints (axis along x); ankle: the most
+        # pitch-like of the last 2 (axis along y)
+        hip = max(leg[:3], key=lambda n: abs(axes[n][0]))
+        ankle = max(leg[-2:], key=lambda n: abs(axes[n][1]))
+        hip_below.append(com_z - data.oMi[model.getJointId(hip)].translation[2])
+        sole_z = data.oMf[sole_frames[side]].translation[2]
+        ankle_above.append(data.oMi[model.getJointId(ankle)].translation[2] - sole_z)
+    hip_below_com, ankle_above_sole = float(np.mean(hip_below)), float(np.mean(ankle_above))
     foot_width = rf.feet.left.size[1]
     step_length = STEP_LENGTH_PER_LEG * leg_length
     return Derived(
         mass_kg=mass,
         com_height_m=height,
         foot_spacing_m=spacing,
-        leg_length_m=leg_length,
+        hip_sole_m=leg_length,
+        hip_below_com_m=hip_below_com,
+        ankle_above_sole_m=ankle_above_sole,
+        leg_length_m=max(highest, height) - hip_below_com - ankle_above_sole,
         straight_com_height_m=straight,
         min_com_height_m=min(lowest, height),
         max_com_height_m=max(highest, height),
@@ -460,6 +483,11 @@ def _spec(rf: RobotFile, d: Derived):
         max_com_height_m=pick("max_com_height_m"),
         bodies=dict(rf.bodies),
         max_turn_rad=pick("max_turn_rad"),
+        leg_length_m=(
+            float(w.leg_length_m)
+            if w.leg_length_m is not None
+            else pick("max_com_height_m") - d.hip_below_com_m - d.ankle_above_sole_m
+        ),
     )
     if not spec.min_com_height_m <= spec.com_height_m <= spec.max_com_height_m:
         raise _err(
@@ -627,8 +655,10 @@ def report(rm: RobotModel) -> str:
         f"  legs: {', '.join(rm.legs['left'])} | {', '.join(rm.legs['right'])}",
         f"  kept: {', '.join(rf.joints.keep) or '-'}; locked: {len(rm.locked)} joints",
         f"  armature {rm.armature:.4g} kg m², damping {rm.damping:.4g} N m s/rad",
-        f"  leg length {d.leg_length_m:.3f} m; CoM {d.straight_com_height_m:.3f} m above the "
+        f"  hip → sole {d.hip_sole_m:.3f} m; CoM {d.straight_com_height_m:.3f} m above the "
         "soles with straight legs",
+        f"  standing: hip (roll) {d.hip_below_com_m:.3f} m below the CoM, ankle (pitch) "
+        f"{d.ankle_above_sole_m:.3f} m above the sole",
         f"  lowest CoM stops at: {d.min_height_reason}",
         f"  hip yaw joints: {', '.join(d.hip_yaw) or '(none)'}",
     ]
@@ -644,6 +674,7 @@ def report(rm: RobotModel) -> str:
         ("max_step_height_m", "m"),
         ("max_swing_speed_m_s", "m/s"),
         ("max_turn_rad", "rad"),
+        ("leg_length_m", "m"),
     )
     for key, unit in rows:
         used, derived = getattr(s, key), getattr(d, key)

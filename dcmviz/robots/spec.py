@@ -34,6 +34,9 @@ class RobotSpec:
     max_com_height_m: float  # highest (knees still bent enough to walk)
     bodies: dict[str, str]  # push target name -> link name in the URDF
     max_turn_rad: float = 0.5  # |yaw| per generated step (gait.turn); 0.5: the schema's bound
+    # hip–ankle distance (m) when standing at max_com_height_m: the legs stretch no further while
+    # walking, so feet far apart lower the CoM (dcmviz.gait.height); None: no such limit
+    leg_length_m: float | None = None
 
     @property
     def b_nominal_s(self) -> float:
