@@ -6,11 +6,11 @@ MuJoCo's measured state, not against the planner's output.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
-
-from pathlib import Path
 
 from dcmviz.config import Config, load_preset, loads_preset
 from dcmviz.robots import get_spec
