@@ -29,6 +29,9 @@ class RobotSpec:
     min_com_height_m: float  # lowest CoM height above the soles the robot walks at
     max_com_height_m: float  # highest (knees still bent enough to walk)
     bodies: dict[str, str]  # push target name -> link name in the URDF
+    # hip–ankle distance (m) when standing at max_com_height_m: the legs stretch no further while
+    # walking, so feet far apart lower the CoM (dcmviz.gait.height); None: no such limit
+    leg_length_m: float | None = None
 
     @property
     def b_nominal_s(self) -> float:
@@ -89,6 +92,8 @@ SPECS: dict[str, RobotSpec] = {
             "left_thigh": "leg_left_3_link",
             "right_thigh": "leg_right_3_link",
         },
+        # hip 0.129 m below the CoM, ankle 0.107 m above the sole: 0.900 − 0.236
+        leg_length_m=0.664,
     ),
     "g1": RobotSpec(
         name="g1",
@@ -113,6 +118,8 @@ SPECS: dict[str, RobotSpec] = {
             "left_thigh": "left_hip_yaw_link",
             "right_thigh": "right_hip_yaw_link",
         },
+        # hip roll 0.046 m below the CoM, ankle pitch 0.052 m above the sole: 0.680 − 0.098
+        leg_length_m=0.582,
     ),
 }
 
