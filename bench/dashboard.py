@@ -113,7 +113,7 @@ def print_traffic(label: str, counts: list[dict], rtf: float, top: bool = False)
         c = counts[0]
         print(f"  messages {c['uncompressed_kib_per_s']:.1f} KiB/s before zstd, array buffers "
               f"{c['binary_kib_per_s']:.1f} KiB/s; messages by type:")  # fmt: skip
-        for key, k in c["by_type"][:6] + c["top_bytes"][:4]:
+        for key, k in c["by_type"][:8] + c["top_bytes"][:12]:
             print(f"    {k / 1024 / c['seconds']:7.1f} KiB/s (msgpack + arrays)  {key}")
 
 

@@ -95,12 +95,12 @@ def main() -> None:
         print(f"recorded {ticks} ticks to {args.record}")
     if args.compare is not None:
         saved = np.load(args.compare)
-        worst = max(
-            (float(np.max(np.abs(np.array(trace[k]) - saved[k]))), k) for k in saved.files
-        )
+        worst = max((float(np.max(np.abs(np.array(trace[k]) - saved[k]))), k) for k in saved.files)
         n = len(saved["t"])
         same = n == ticks
-        print(f"largest difference over {n} ticks: {worst[0]:.3g} ({worst[1]}); ticks match: {same}")
+        print(
+            f"largest difference over {n} ticks: {worst[0]:.3g} ({worst[1]}); ticks match: {same}"
+        )
 
 
 def _apply_pushes(backend: MujocoBackend, pushes, t: float) -> None:

@@ -127,8 +127,8 @@ async def client(port: int, warmup_s: float, seconds: float, dragging=None) -> d
         "kib_per_s": nbytes / 1024 / seconds,
         "seconds": seconds,
         "binary_kib_per_s": binary / 1024 / seconds,  # array buffers outside the zstd part
-        "top": counts.most_common(12),
-        "top_bytes": sizes.most_common(8),
+        "top": counts.most_common(40),
+        "top_bytes": sizes.most_common(20),
         "by_type": sorted(((k, v) for k, v in _by_type(sizes).items()), key=lambda kv: -kv[1]),
         "uncompressed_kib_per_s": sum(sizes.values()) / 1024 / seconds,
     }

@@ -10,6 +10,7 @@ logs, every ``log_dt_s`` of simulated time on the ``sim_time`` timeline:
   strips (re-logged when a touchdown commits a footstep), footsteps as boxes (planned = nominal,
   adjusted = the target being adjusted right now, realised = where each foot landed), the applied
   external force and the estimated force as arrows at the CoM;
+* ``world/terrain``: the preset's stairs and boxes (:mod:`dcmviz.terrain`) as solid boxes;
 * ``world/robot/<model>/<mesh>``: the humanoid's visual meshes (:mod:`dcmviz.visual`, the
   model the dashboard draws) as ``rr.Mesh3D``, logged once when the first humanoid tick arrives,
   each posed per sample from ``tick.pose`` by a ``Transform3D``; for the point mass two legs.
@@ -34,6 +35,7 @@ import numpy as np
 import rerun as rr
 
 from dcmviz.session import Session
+from dcmviz.terrain import terrain_of
 from dcmviz.tick import Tick
 from dcmviz.visual import RobotVisual, robot_visual
 
@@ -52,6 +54,7 @@ SERIES_COLORS = {
     "v_ref": (255, 160, 0),
     "v_cmd": (230, 50, 50),
 }
+TERRAIN_COLOR = (168, 158, 140, 255)
 FOOT_COLORS = {
     "planned": (170, 170, 170, 120),
     "plan": (90, 140, 255, 150),
@@ -166,6 +169,23 @@ class Recorder:
         self._half_size = (0.5 * spec.foot_length_m, 0.5 * spec.foot_width_m, 0.004)
         nominal = session.nominal_plan
         rec.log("world/footsteps/planned", self._boxes(nominal.steps, "planned"), static=True)
+        terrain = terrain_of(session.config.terrain)
+        if not terrain.flat:  # the preset's stairs and boxes, solid, from the floor up
+            solids = [box.solid for box in terrain.boxes]
+            rec.log(
+                "world/terrain",
+                rr.Boxes3D(
+                    centers=[c for c, _ in solids],
+                    half_sizes=[h for _, h in solids],
+                    rotation_axis_angles=[
+                        rr.RotationAxisAngle(axis=(0, 0, 1), radians=float(b.yaw))
+                        for b in terrain.boxes
+                    ],
+                    colors=[TERRAIN_COLOR] * len(solids),
+                    fill_mode=rr.components.FillMode.Solid,
+                ),
+                static=True,
+            )
 
     def _boxes(self, steps: Any, kind: str) -> rr.Boxes3D:
         centers = [

@@ -48,13 +48,7 @@ def make_backend(config: Config, backend: str | None = None) -> Backend:
     if name == "mujoco":
         from dcmviz.sim.mujoco_sim import MujocoBackend
 
-        if not terrain_of(config.terrain).flat:
-            raise ValueError(
-                "terrain: the MuJoCo scene is a flat floor in this version; walk stairs and boxes "
-                "on the point mass (sim.backend = 'lip')"
-            )
-
-        return MujocoBackend(config.robot.model)
+        return MujocoBackend(config.robot.model, terrain=terrain_of(config.terrain))
     raise ValueError(f"sim.backend = {name!r}: allowed 'mujoco' or 'lip'")
 
 

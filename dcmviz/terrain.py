@@ -26,6 +26,15 @@ class Box:
     top: float  # m, height of the top face above the floor
     yaw: float = 0.0  # rad
 
+    @property
+    def solid(self) -> tuple[np.ndarray, np.ndarray]:
+        """Centre (3,) and half-sizes (3,) of the block from the floor up to the top face (m):
+        the MuJoCo geom, the dashboard's and the recording's box."""
+        return (
+            np.array([self.center[0], self.center[1], 0.5 * self.top]),
+            np.array([0.5 * self.size[0], 0.5 * self.size[1], 0.5 * self.top]),
+        )
+
     def local(self, xy: np.ndarray) -> np.ndarray:
         """Points (…, 2) in the box's frame (origin at its centre)."""
         c, s = math.cos(self.yaw), math.sin(self.yaw)

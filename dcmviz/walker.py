@@ -143,6 +143,7 @@ class Walker:
             self.config.dcm.order,
             t0=state.t,
             start_com=state.com,
+            spec=self.spec,
         )
         self.plan_version += 1
         self.nominal_plan = self.plan
@@ -564,6 +565,7 @@ class Walker:
                 start="transfer",
                 landed=step.side,
                 t0=t_touch,
+                spec=self.spec,
             )
             self.nominal_plan = self.plan  # the horizon as generated, before any adjustment
             self._nominal_durations = self.plan.preview.durations.copy()

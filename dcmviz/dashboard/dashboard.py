@@ -42,6 +42,7 @@ from dcmviz.dashboard.recording import RecordingPanel
 from dcmviz.dashboard.render import SimView
 from dcmviz.dashboard.sim_panel import SimPanel
 from dcmviz.dashboard.status import StatusLine
+from dcmviz.dashboard.terrain_view import TerrainView
 from dcmviz.dcm.control import vrp_height
 from dcmviz.robots import get_spec
 from dcmviz.session import Session
@@ -88,6 +89,8 @@ class Dashboard:
         self.loop = SimLoop(session_factory, config, on_event=self._on_sim_event)
         self.editor = ConfigEditor(config, self.loop, self.notifier)
         scene.draw_ground(server)
+        self.terrain_view = TerrainView(server.scene)  # stairs and boxes of the preset
+        self.editor.on_applied(lambda config, preset: self.terrain_view.show(config))
 
         gui = server.gui
         gui.configure_theme(
@@ -137,6 +140,7 @@ class Dashboard:
         )  # fmt: skip
         self._wire()
         self.show_config(config, preset)
+        self.terrain_view.show(config)
         self.preview.update(self.loop.snapshot)  # the walk's plan, before any thread runs
         if start:
             self.start()

@@ -18,6 +18,7 @@ ADJ_STROKE = "#ff00c8"
 ERROR_STROKE = "#d62728"
 LIVE_POINTS = 300  # samples per live series (a 400 px wide panel shows no more)
 PREVIEW_POINTS = 250  # samples per preview series
+PLOT_TOLERANCE = 2e-3  # m (and s): a preview plot whose samples all moved less is not re-sent
 
 
 def thin(n: int, points: int) -> slice:
@@ -63,14 +64,16 @@ class PreviewPlots:
         ]
 
     def draw(self, data: PreviewData) -> None:
-        """Replace the data of the three plots (each only if it changed)."""
+        """Replace the data of the three plots (each only if it changed by more than
+        PLOT_TOLERANCE, far below a pixel: a touchdown moves the walked plan by ~1 mm)."""
         every = thin(len(data.t), PREVIEW_POINTS)
         t = f32(data.t, every)
         for i, handle in enumerate(self.handles):
             new = (t, f32(data.vrp[:, i], every), f32(data.dcm[:, i], every))
             old = handle.data
             if len(old) == 3 and all(
-                np.shape(a) == b.shape and np.array_equal(a, b)
+                np.shape(a) == b.shape
+                and (b.size == 0 or float(np.abs(np.asarray(a) - b).max()) <= PLOT_TOLERANCE)
                 for a, b in zip(old, new, strict=True)
             ):
                 continue

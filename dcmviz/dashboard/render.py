@@ -24,8 +24,8 @@ from dcmviz.robots import get_spec
 from dcmviz.visual import robot_visual
 
 RENDER_FPS = 40.0  # scene updates per second (≥ 30 with margin for scheduling jitter)
-STATUS_DT_S = 0.25  # the status line is rewritten at most this often, and only if its text changed
-PLOT_DT_S = 1.0  # the live plot is redrawn this often (its data is the largest message)
+STATUS_DT_S = 0.5  # the status line is rewritten at most this often, and only if its text changed
+PLOT_DT_S = 2.0  # the live plot is redrawn this often (its data is the largest message)
 FOLLOW_DT_S = 0.1  # camera-follow updates (per client, so kept slow)
 FLOOR_LIFT_M = 0.012  # overlays on the floor sit this high (above the footsteps)
 MARKER_TOLERANCE_M = 5e-4  # a marker that moved less is not re-sent (below a pixel at 3 m)

@@ -1,11 +1,14 @@
 """``draw_*`` functions: each re-adds its scene nodes at stable paths, so redrawing is idempotent.
 
 They read state (a :class:`PreviewData`, a :class:`~dcmviz.dashboard.loop.Snapshot`) and never
-compute anything beyond turning it into geometry.
+compute anything beyond turning it into geometry.  A node whose geometry is within
+PREVIEW_TOLERANCE_M of what it already shows (same style) is not sent again: every write goes to
+every tab, and a touchdown that commits a footstep moves the walked plan by about a millimetre.
 """
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 
 import numpy as np
@@ -28,6 +31,40 @@ NEWTONS_PER_METRE = 100.0  # arrow length scale: 100 N ↔ 1 m
 SPLINE_POINTS = 150  # control points of the DCM splines (Catmull-Rom: smooth between them)
 VRP_SEGMENT_STRIDE = 2  # preview samples per drawn VRP segment (divides SAMPLES_PER_PHASE)
 ARROW_STANDOFF_M = 0.15  # a push arrow stops this far before the body point (outside the shell)
+# geometry that moved less than this is not re-sent (about half a pixel at 3 m; a touchdown moves
+# the walked plan's committed footstep and its waypoints by ~1.3 mm)
+PREVIEW_TOLERANCE_M = 2e-3
+
+# per scene: node name → (arrays, style) it shows
+_drawn: weakref.WeakKeyDictionary[viser.SceneApi, dict[str, tuple]] = weakref.WeakKeyDictionary()
+
+
+def shown(scene: viser.SceneApi, name: str, arrays: Sequence[np.ndarray], style: tuple) -> bool:
+    """True if node ``name`` already shows ``arrays`` (each within PREVIEW_TOLERANCE_M, same
+    shapes) in ``style``; otherwise remember them as shown (the caller then draws them)."""
+    drawn = _drawn.setdefault(scene, {})
+    arrays = tuple(np.asarray(a) for a in arrays)
+    old = drawn.get(name)
+    if (
+        old is not None
+        and old[1] == style
+        and len(old[0]) == len(arrays)
+        and all(
+            a.shape == b.shape
+            and (a.size == 0 or float(np.abs(a - b).max()) <= PREVIEW_TOLERANCE_M)
+            for a, b in zip(old[0], arrays, strict=True)
+        )
+    ):
+        return True
+    drawn[name] = (tuple(a.copy() for a in arrays), style)
+    return False
+
+
+def forget(scene: viser.SceneApi, prefix: str) -> None:
+    """Nodes under ``prefix`` were removed or replaced elsewhere: draw them afresh next time."""
+    drawn = _drawn.get(scene, {})
+    for name in [n for n in drawn if n.startswith(prefix)]:
+        drawn.pop(name, None)
 
 
 def soles_mesh(
@@ -63,9 +100,12 @@ def _draw_soles(
     lift: float = 0.0,
 ) -> None:
     if not soles:
-        scene.add_frame(name, show_axes=False)  # replaces the node: nothing drawn
+        if not shown(scene, name, (), ("empty",)):
+            scene.add_frame(name, show_axes=False)  # replaces the node: nothing drawn
         return
     v, f = soles_mesh(soles, length, width, lift)
+    if shown(scene, name, (v, f), ("soles", color, opacity)):
+        return
     scene.add_mesh_simple(
         name, v, f, color=color, opacity=opacity if opacity < 1.0 else None, flat_shading=True
     )
@@ -102,29 +142,32 @@ def draw_preview(scene: viser.SceneApi, data: PreviewData) -> None:
     """VRP trajectory coloured by phase kind, its waypoints, and the DCM trajectory (eqs. 13, 16)."""
     pts, colors = data.vrp_segments()
     pts, colors = thin_segments(pts, colors, VRP_SEGMENT_STRIDE)
-    scene.add_line_segments("/preview/vrp", pts, colors, thickness=4.0, thickness_units="screen")
-    scene.add_point_cloud(
-        "/preview/vrp_waypoints",
-        data.waypoints.astype(np.float32),
-        colors=VRP_WAYPOINT_COLOR,
-        point_size=0.03,
-        point_shape="circle",
-    )
-    scene.add_spline_catmull_rom(
-        "/preview/dcm",
-        data.dcm[:: max(1, len(data.dcm) // SPLINE_POINTS)].astype(np.float32),
-        color=DCM_COLOR,
-        thickness=3.0,
-        thickness_units="screen",
-    )
+    if not shown(scene, "/preview/vrp", (pts, colors), ("vrp",)):
+        scene.add_line_segments(
+            "/preview/vrp", pts, colors, thickness=4.0, thickness_units="screen"
+        )
+    waypoints = data.waypoints.astype(np.float32)
+    if not shown(scene, "/preview/vrp_waypoints", (waypoints,), ("waypoints",)):
+        scene.add_point_cloud(
+            "/preview/vrp_waypoints",
+            waypoints,
+            colors=VRP_WAYPOINT_COLOR,
+            point_size=0.03,
+            point_shape="circle",
+        )
+    dcm = data.dcm[:: max(1, len(data.dcm) // SPLINE_POINTS)].astype(np.float32)
+    if not shown(scene, "/preview/dcm", (dcm,), ("dcm",)):
+        scene.add_spline_catmull_rom(
+            "/preview/dcm", dcm, color=DCM_COLOR, thickness=3.0, thickness_units="screen"
+        )
     # the ground projection of the DCM helps reading it against the footsteps
-    ground = data.dcm.copy()
+    ground = dcm.copy()
     ground[:, 2] = data.soles[0].position[2] + 0.003 if data.soles else 0.003
-    scene.add_spline_catmull_rom(
-        "/preview/dcm_ground", ground[:: max(1, len(ground) // SPLINE_POINTS)].astype(np.float32),
-        color=(150, 160, 220),
-        thickness=2.0, thickness_units="screen",
-    )  # fmt: skip
+    if not shown(scene, "/preview/dcm_ground", (ground,), ("dcm_ground",)):
+        scene.add_spline_catmull_rom(
+            "/preview/dcm_ground", ground, color=(150, 160, 220),
+            thickness=2.0, thickness_units="screen",
+        )  # fmt: skip
 
 
 WARNING_COLOR = (230, 20, 20)
@@ -141,18 +184,22 @@ def draw_warnings(
         for sole in soles:
             c = sole.corners(length * 1.15, width * 1.3) + [0.0, 0.0, 0.015]
             segments += [[c[i], c[(i + 1) % 4]] for i in range(4)]
-        scene.add_line_segments(
-            "/preview/warnings/steps", np.array(segments, np.float32), WARNING_COLOR,
-            thickness=5.0, thickness_units="screen",
-        )  # fmt: skip
-    else:
+        segments = np.array(segments, np.float32)
+        if not shown(scene, "/preview/warnings/steps", (segments,), ("warnings",)):
+            scene.add_line_segments(
+                "/preview/warnings/steps", segments, WARNING_COLOR,
+                thickness=5.0, thickness_units="screen",
+            )  # fmt: skip
+    elif not shown(scene, "/preview/warnings/steps", (), ("empty",)):
         scene.add_frame("/preview/warnings/steps", show_axes=False)
     if len(waypoints):
-        scene.add_point_cloud(
-            "/preview/warnings/waypoints", np.asarray(waypoints, np.float32),
-            colors=WARNING_COLOR, point_size=0.07, point_shape="circle",
-        )  # fmt: skip
-    else:
+        points = np.asarray(waypoints, np.float32)
+        if not shown(scene, "/preview/warnings/waypoints", (points,), ("warnings",)):
+            scene.add_point_cloud(
+                "/preview/warnings/waypoints", points,
+                colors=WARNING_COLOR, point_size=0.07, point_shape="circle",
+            )  # fmt: skip
+    elif not shown(scene, "/preview/warnings/waypoints", (), ("empty",)):
         scene.add_frame("/preview/warnings/waypoints", show_axes=False)
 
 

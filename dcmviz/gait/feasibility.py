@@ -13,7 +13,8 @@ says what the robot cannot do, naming the setting or the footstep and the limit:
   yaw) does not intersect the stance foot's;
 * swing speed: lift-off → touchdown distance (horizontal) / T_ss ≤ ``spec.max_swing_speed_m_s``;
 * CoM height: Δz_vrp = g b² inside the robot's range (eq. 1; the preset validation refuses such a
-  b, a plan built otherwise is still warned about).
+  b, a plan built otherwise is still warned about), and whether the legs span every stride at
+  that height (:mod:`dcmviz.gait.height`: a plan walks lower where they cannot, and says so).
 
 Footsteps are 1-based in messages ("footstep 3"), 0-based in :attr:`PlanWarning.step` (an index
 into ``plan.steps``), like waypoints (``plan.waypoints``).
@@ -26,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dcmviz.config import Config
+from dcmviz.gait.height import REACH_FRACTION, leg_span_m, step_heights
 from dcmviz.gait.plan import GaitPlan
 from dcmviz.robots.geometry import (
     convex_hull,
@@ -39,6 +41,9 @@ from dcmviz.robots.spec import RobotSpec
 from dcmviz.state import SIDE_SIGN, Footstep
 
 SUPPORT_MARGIN_M = 0.01  # a VRP waypoint's ground point must be ≥ 1 cm inside the support polygon
+# a plan that walks lower than Δz_vrp by more than this (m) says so: within it the CoM height is
+# within what the humanoid tracks anyway (the envelope's vertical limit is 2 cm)
+HEIGHT_TOLERANCE_M = 0.01
 
 
 @dataclass(frozen=True)
@@ -63,10 +68,37 @@ def check_plan(plan: GaitPlan, spec: RobotSpec, config: Config) -> list[PlanWarn
     problem = spec.height_problem(plan.b)
     if problem:
         warnings.append(PlanWarning(f"dcm.b = {plan.b:.3f}: {problem}", "dcm.b"))
+    else:
+        warnings += _height_warnings(plan, spec)
     stances = [plan.stance_for(k) for k in range(len(plan.steps))]
     warnings += _support_warnings(plan, spec, stances)
     warnings += _step_warnings(plan, spec, config, stances)
     return warnings
+
+
+def _height_warnings(plan: GaitPlan, spec: RobotSpec) -> list[PlanWarning]:
+    """One warning when the legs cannot span a stride at Δz_vrp and the plan walks lower.
+
+    On terrain the legs also reach down half of each rise, so stairs walk lower too.
+    """
+    if not plan.steps:
+        return []
+    heights = step_heights(spec, plan.dz_vrp, plan.start_feet, plan.steps)
+    k = int(np.argmin(heights))
+    if heights[k] >= plan.dz_vrp - HEIGHT_TOLERANCE_M:
+        return []
+    span = leg_span_m(spec, plan.stance_for(k), plan.steps[k])
+    return [
+        PlanWarning(
+            f"dcm.b = {plan.b:.3f} asks for a CoM height of {plan.dz_vrp:.3f} m, but with "
+            f"footstep {k + 1} {span / REACH_FRACTION:.3f} m from its stance foot "
+            f"{spec.name}'s legs reach only {heights[k]:.3f} m high: the walk lowers the CoM "
+            f"by {plan.dz_vrp - heights[k]:.3f} m while the feet are apart (a smaller dcm.b or "
+            f"shorter steps keep it)",
+            "dcm.b",
+            k,
+        )
+    ]
 
 
 # ---------------------------------------------------------------------------------------------

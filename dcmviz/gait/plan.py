@@ -25,6 +25,8 @@ import numpy as np
 from dcmviz.config import Config, GaitSection
 from dcmviz.dcm import Preview, continuity_waypoints, vrp_height
 from dcmviz.gait.footsteps import on_terrain, plan_footsteps
+from dcmviz.gait.height import step_heights
+from dcmviz.robots.spec import RobotSpec, get_spec
 from dcmviz.state import OTHER, Footstep
 from dcmviz.terrain import terrain_of
 
@@ -238,6 +240,7 @@ def build_plan(
     landed: str | None = None,
     t0: float = 0.0,
     start_com: np.ndarray | None = None,
+    spec: RobotSpec | None = None,
 ) -> GaitPlan:
     """Assemble waypoints, durations and phases for ``steps`` and build the preview.
 
@@ -251,10 +254,14 @@ def build_plan(
     foot through the start phase, so a b that does not match the robot's present height changes
     it smoothly instead of making the vertical reference jump.  Without it the standing VRP is
     Δz_vrp above the middle of the feet.
+
+    ``spec``: the robot's legs lower the VRP waypoints of a footstep whose stride they cannot
+    span at Δz_vrp (:mod:`dcmviz.gait.height`); without it every waypoint is Δz_vrp above its foot.
     """
     if len(steps) == 0:
         raise ValueError("steps: a plan needs at least one footstep")
     dz = np.array([0.0, 0.0, vrp_height(b)])
+    step_dz = [np.array([0.0, 0.0, h]) for h in step_heights(spec, dz[2], start_feet, steps)]
     feet = dict(start_feet)
     wps: list[np.ndarray] = []
     kinds: list[str] = []
@@ -274,14 +281,17 @@ def build_plan(
             if start_com is None
             else np.asarray(start_com, dtype=float)
         )
-        wps += [mid0, mid0, stance.position + dz]  # w2 is solved below (D2)
+        wps += [mid0, mid0, stance.position + step_dz[0]]  # w2 is solved below (D2)
         add_phase("start_a", -1, START_SPLIT * timing.t_start)
         add_phase("start_b", -1, (1.0 - START_SPLIT) * timing.t_start)
     elif start == "transfer":
         if landed is None:
             raise ValueError("landed: a transfer plan needs the side that just touched down")
         stance = feet[landed]
-        wps += [feet[OTHER[landed]].position + dz, stance.position + dz]
+        other = feet[OTHER[landed]]
+        (landed_dz,) = step_heights(spec, dz[2], {OTHER[landed]: other}, (stance,))
+        landed_dz = np.array([0.0, 0.0, landed_dz])
+        wps += [other.position + landed_dz, stance.position + landed_dz]
         add_phase("ds", -1, timing.t_ds)
     else:
         raise ValueError(f"start = {start!r}: allowed 'stand' or 'transfer'")
@@ -292,15 +302,15 @@ def build_plan(
         liftoff.append(feet[step.side])
         stance = feet[OTHER[step.side]]
         # ss_k: VRP stays on the stance foot while step k swings
-        wps.append(stance.position + dz)
+        wps.append(stance.position + step_dz[k])
         add_phase("ss", k, timing.t_ss)
         feet[step.side] = step
         if k < n - 1:
-            wps.append(step.position + dz)  # ds_k: onto the new foot
+            wps.append(step.position + step_dz[k])  # ds_k: onto the new foot
             add_phase("ds", k, timing.t_ds)
             weights[k][len(wps) - 1] = 1.0
         else:
-            wps.append(0.5 * (stance.position + step.position) + dz)  # stop: between the feet
+            wps.append(0.5 * (stance.position + step.position) + step_dz[k])  # stop: between feet
             add_phase("stop", k, timing.t_stop)
             weights[k][len(wps) - 1] = 0.5
         # the stance waypoint of the next ss belongs to this footstep as well
@@ -354,4 +364,5 @@ def plan_from_config(
         config.dcm.b,
         config.dcm.order,
         start_com=start_com,
+        spec=get_spec(config.robot.model),
     )

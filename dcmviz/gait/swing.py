@@ -32,7 +32,30 @@ def _quintic_coefficients(
 EDGE_CLEARANCE_M = 0.03  # over terrain, the sole passes every edge at least this high
 
 
-def _apex_over(
+# over terrain, the sole rises in the first 35 % of the swing and lowers in the last 35 %
+RISE_FRACTION = 0.35
+
+
+def _smoothstep5(u: np.ndarray | float) -> tuple:
+    """q(u) = u³(10 − 15u + 6u²) clipped to [0, 1], with dq/du and d²q/du² (0 at both ends)."""
+    u = np.clip(u, 0.0, 1.0)
+    return (
+        u**3 * (10 - 15 * u + 6 * u * u),
+        30 * u * u * (1 - u) ** 2,
+        60 * u * (1 - u) * (1 - 2 * u),
+    )
+
+
+def _terrain_profile(s: np.ndarray | float) -> tuple:
+    """Rise R(s) (0 → 1 over [0, σ]) and fall F(s) (0 → 1 over [1 − σ, 1]), σ = RISE_FRACTION,
+    with their first and second derivatives in s: z(s) = z0 + (z_top − z0) R + (z1 − z_top) F."""
+    sigma = RISE_FRACTION
+    r, dr, ddr = _smoothstep5(np.asarray(s) / sigma)
+    f, df, ddf = _smoothstep5((np.asarray(s) - (1.0 - sigma)) / sigma)
+    return r, dr / sigma, ddr / sigma**2, f, df / sigma, ddf / sigma**2
+
+
+def _top_over(
     terrain: Terrain,
     lift: Footstep,
     touch: Footstep,
@@ -40,27 +63,33 @@ def _apex_over(
     z0: float,
     z1: float,
 ) -> float:
-    """The smallest apex h with z(s) ≥ ground under the sole + EDGE_CLEARANCE_M along the path.
+    """The lowest plateau z_top ≥ max(z0, z1) + SWING_HEIGHT_M of the terrain profile (see
+    :class:`SwingTrajectory`) with the sole at least EDGE_CLEARANCE_M above the highest ground
+    under it wherever it straddles an edge, and never below the ground elsewhere.
 
     The sole's centre moves with the quintic q(s) between lift-off and touchdown (as the
     horizontal path does when not re-targeted); the ground under it is sampled at its corners,
-    edge mid-points and centre; z(s) = z0 + (z1 − z0) q(s) + h 64 s³ (1 − s)³.
+    edge mid-points and centre.
     """
-    s = np.linspace(0.02, 0.98, 49)
+    s = np.linspace(0.02, 0.98, 97)
     q = s**3 * (10 - 15 * s + 6 * s * s)
-    bump = 64 * s**3 * (1 - s) ** 3
     a, b = 0.5 * sole[0], 0.5 * sole[1]
     offsets = np.array(
         [[u * a, v * b] for u in (-1.0, 0.0, 1.0) for v in (-1.0, 0.0, 1.0)]
     )  # (9, 2) in the sole frame
     yaw = lift.yaw + (touch.yaw - lift.yaw) * q
     c, sn = np.cos(yaw), np.sin(yaw)
-    centre = lift.position[:2] + np.outer(q, touch.position[:2] - lift.position[:2])  # (49, 2)
+    centre = lift.position[:2] + np.outer(q, touch.position[:2] - lift.position[:2])  # (97, 2)
     px = centre[:, None, 0] + c[:, None] * offsets[:, 0] - sn[:, None] * offsets[:, 1]
     py = centre[:, None, 1] + sn[:, None] * offsets[:, 0] + c[:, None] * offsets[:, 1]
-    ground = terrain.height_at(np.stack([px, py], axis=-1)).max(axis=1)  # (49,)
-    need = (ground + EDGE_CLEARANCE_M - z0 - (z1 - z0) * q) / bump
-    return float(max(need.max(), 0.0))
+    heights = terrain.height_at(np.stack([px, py], axis=-1))  # (97, 9)
+    ground = heights.max(axis=1)
+    straddle = np.ptp(heights, axis=1) > 1e-9
+    need = ground + np.where(straddle, EDGE_CLEARANCE_M, 0.0)
+    r, _, _, f, _, _ = _terrain_profile(s)
+    # z(s) = z0 (1 − R) + z1 F + z_top (R − F) ≥ need, with R − F > 0 inside (0, 1)
+    bound = (need - z0 * (1 - r) - z1 * f) / np.maximum(r - f, 1e-12)
+    return float(max(max(z0, z1) + SWING_HEIGHT_M, bound.max()))
 
 
 @dataclass(frozen=True)
@@ -70,6 +99,12 @@ class SwingTrajectory:
     Horizontal position and yaw follow a quintic to the target with zero end velocity and
     acceleration; the height follows z0 + (z1 − z0) q(s) + h 64 s³ (1 − s)³ (zero velocity and
     acceleration at both ends, apex h above the straight line at mid-swing).
+
+    Over terrain (``top`` set) the sole rises first, then travels, then lowers: z(s) = z0 +
+    (top − z0) R(s) + (z1 − top) F(s), R rising 0 → 1 over the first RISE_FRACTION of the swing
+    and F over the last (quintic smoothsteps: C², zero velocity and acceleration at both ends),
+    ``top`` the lowest plateau that clears every edge under the sole by EDGE_CLEARANCE_M.  A bump
+    over the straight line would have to rise far higher to clear a riser early in the swing.
     """
 
     t_lift: float
@@ -81,6 +116,7 @@ class SwingTrajectory:
     height: float
     t_seg: float = 0.0  # start time of the current horizontal segment
     coeffs: np.ndarray | None = None  # (6, 3): x, y, yaw quintic from t_seg to t_touch
+    top: float | None = None  # m, plateau height over terrain (None: the bump of flat ground)
 
     @staticmethod
     def between(
@@ -96,8 +132,10 @@ class SwingTrajectory:
         sole (``sole`` = length, width, m) passes every edge under it with ``EDGE_CLEARANCE_M``."""
         z0, z1 = float(lift.position[2]), float(touch.position[2])
         height = clearance + 0.5 * abs(z1 - z0)
+        top = None
         if terrain is not None and not terrain.flat:
-            height = max(height, _apex_over(terrain, lift, touch, sole, z0, z1))
+            top = _top_over(terrain, lift, touch, sole, z0, z1)
+            height = top - 0.5 * (z0 + z1)
         yaw1 = lift.yaw + math.remainder(touch.yaw - lift.yaw, 2 * math.pi)
         p0 = np.array([lift.position[0], lift.position[1], lift.yaw])
         p1 = np.array([touch.position[0], touch.position[1], yaw1])
@@ -112,6 +150,7 @@ class SwingTrajectory:
             height,
             t_lift,
             c,
+            top,
         )
 
     def frozen(self, t: float) -> bool:
@@ -143,6 +182,7 @@ class SwingTrajectory:
             self.height,
             t,
             c,
+            self.top,
         )
 
     def retime(self, t: float, t_touch: float) -> SwingTrajectory:
@@ -184,6 +224,18 @@ class SwingTrajectory:
         s = min(max((t - self.t_lift) / T, 0.0), 1.0)
         p, v, a = self._horizontal(t)
         z0, z1 = self.start[2], self.target[2]
+        if self.top is not None:
+            r, dr, ddr, f, df, ddf = _terrain_profile(s)
+            z = z0 + (self.top - z0) * r + (z1 - self.top) * f
+            dz = ((self.top - z0) * dr + (z1 - self.top) * df) / T
+            ddz = ((self.top - z0) * ddr + (z1 - self.top) * ddf) / (T * T)
+            return (
+                np.array([p[0], p[1], float(z)]),
+                np.array([v[0], v[1], float(dz)]),
+                np.array([a[0], a[1], float(ddz)]),
+                float(p[2]),
+                float(v[2]),
+            )
         q = s**3 * (10 - 15 * s + 6 * s * s)
         dq = 30 * s * s * (1 - s) ** 2
         ddq = 60 * s * (1 - s) * (1 - 2 * s)

@@ -19,9 +19,30 @@ from dcmviz.backend import RobotPose
 from dcmviz.sim.robots import SIDES, Robot, load_robot
 from dcmviz.sim.wbc import Context, Gains, MomentObserver, WholeBodyController
 from dcmviz.state import FootTarget, MeasuredState, WalkerCommand
+from dcmviz.terrain import Terrain
+
+TERRAIN_FRICTION = (1.0, 0.005, 0.0001)  # as the floor's (dcmviz.sim.robots)
 
 # the clock of ``timings``: wall time; bench/sim.py may set CPU time (time.thread_time)
 _clock = time.perf_counter
+
+
+def terrain_model(robot: Robot, terrain: Terrain) -> mujoco.MjModel:
+    """The robot's scene (robot + floor, ``Robot.mj_spec``) with the terrain's boxes added: each
+    a box geom from the floor up to its top face, colliding with the soles like the floor does
+    (same contact type, affinity and friction)."""
+    spec = robot.mj_spec.copy()
+    for i, box in enumerate(terrain.boxes):
+        centre, half = box.solid
+        geom = spec.worldbody.add_geom(
+            name=f"terrain_{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=half.tolist()
+        )
+        geom.pos = centre.tolist()
+        geom.quat = [np.cos(0.5 * box.yaw), 0.0, 0.0, np.sin(0.5 * box.yaw)]
+        geom.friction = list(TERRAIN_FRICTION)
+        geom.contype, geom.conaffinity = 1, 1
+        geom.rgba = [0.62, 0.60, 0.56, 1.0]
+    return spec.compile()
 
 
 class MujocoBackend:
@@ -36,6 +57,7 @@ class MujocoBackend:
         control_dt: float = 0.002,
         physics_dt: float = 0.001,
         gains: Gains | None = None,
+        terrain: Terrain | None = None,
     ) -> None:
         if not (np.isfinite(control_dt) and control_dt > 0):
             raise ValueError(f"control_dt = {control_dt!r}: must be > 0")
@@ -47,7 +69,14 @@ class MujocoBackend:
         self.control_dt = float(control_dt)
         self.physics_dt = float(physics_dt)
         self.n_substeps = max(1, round(control_dt / physics_dt))
-        self.model = copy.deepcopy(self.robot.mj_model)  # own timestep, independent of others
+        self.terrain = terrain if terrain is not None else Terrain()
+        if self.terrain.flat:
+            self.model = copy.deepcopy(self.robot.mj_model)  # own timestep, independent of others
+        else:
+            self.model = terrain_model(self.robot, self.terrain)
+        # ground height (m) under the standing soles at (0, ±spacing/2): the robot starts on it
+        half = 0.5 * self.robot.foot_spacing
+        self._ground = float(self.terrain.height_at(np.array([[0.0, half], [0.0, -half]])).max())
         self.model.opt.timestep = self.control_dt / self.n_substeps
         self.data = mujoco.MjData(self.model)
         self.wbc = WholeBodyController(self.robot, gains)
@@ -66,7 +95,10 @@ class MujocoBackend:
         self._contact = {s: False for s in SIDES}
         self._contact_force = {s: 0.0 for s in SIDES}
         self._applied = np.zeros(3)
-        self._sole_bodies = np.array([self.model.geom_bodyid[self.robot.sole_geoms[s]] for s in SIDES])
+        # by name: the terrain's geoms come before the robot's in a terrain model
+        self._sole_bodies = np.array(
+            [self.model.geom_bodyid[self.model.geom(f"{s}_sole").id] for s in SIDES]
+        )
         self.t = 0.0
         self._sink = 0.0
         self.reset()
@@ -97,18 +129,21 @@ class MujocoBackend:
         )
         for _ in range(round(duration / self.control_dt)):
             state = self.step(command)
-        return float(max(0.0, -np.mean([state.feet[s][2] for s in SIDES])))
+        return float(max(0.0, self._ground - np.mean([state.feet[s][2] for s in SIDES])))
 
     # ------------------------------------------------------------------------------------
     def reset(self) -> MeasuredState:
-        """Nominal standing posture, soles at (0, ±spacing/2, 0) (sunk by the settled contact
-        depth, < 1 mm), zero velocity, no external force, t = 0."""
+        """Nominal standing posture, soles at (0, ±spacing/2, ground) on the terrain's ground
+        there (sunk by the settled contact depth, < 1 mm), zero velocity, no external force,
+        t = 0."""
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[:] = self.robot.qpos_mj(self.robot.q_nominal)
         self.data.qpos[2] -= self._sink  # soles as deep as they settle under the weight
+        if self._ground:
+            self.data.qpos[2] += self._ground  # standing on the terrain under the feet
         self.data.xfrc_applied[:] = 0.0
         mujoco.mj_forward(self.model, self.data)
-        self._upper_bodies = np.flatnonzero(self.data.xpos[:, 2] > 0.25)
+        self._upper_bodies = np.flatnonzero(self.data.xpos[:, 2] - self._ground > 0.25)
         self.t = 0.0
         self._observer_fresh = True
         self.wbc.reset()
@@ -213,13 +248,25 @@ class MujocoBackend:
         """Base below 55 % of its nominal height above the soles, tilted more than 45°, or a
         body that stands ≥ 0.25 m high in the nominal posture (knee, hip, torso, arm) within
         0.08 m of the floor under the soles (only the soles collide, so this stands in for a
-        non-foot contact)."""
+        non-foot contact). On terrain, heights are taken above the ground under the base and
+        under each of those bodies instead of the lower sole."""
         d = self.data
+        if not self.terrain.flat:
+            return self._fell_on_terrain()
         floor = min(d.site_xpos[self.robot.sole_sites[s]][2] for s in SIDES)
         base_z = d.qpos[2] - floor
         nominal = self.robot.q_nominal[2]
         up = d.xmat[1][8]  # cos(tilt) of the root body
         low = d.xpos[self._upper_bodies, 2].min() - floor < 0.08
+        return bool(base_z < 0.55 * nominal or up < np.cos(np.radians(45.0)) or low)
+
+    def _fell_on_terrain(self) -> bool:
+        d = self.data
+        base_z = d.qpos[2] - float(self.terrain.height_at(d.qpos[:2]))
+        up = d.xmat[1][8]
+        bodies = d.xpos[self._upper_bodies]
+        low = bool(np.any(bodies[:, 2] - self.terrain.height_at(bodies[:, :2]) < 0.08))
+        nominal = self.robot.q_nominal[2]
         return bool(base_z < 0.55 * nominal or up < np.cos(np.radians(45.0)) or low)
 
     # --- drawing / recording -------------------------------------------------------------
