@@ -205,7 +205,7 @@ class SwingTrajectory:
         c = _quintic_coefficients(p, v, a, p1, t_touch - t)
         return SwingTrajectory(
             t_lift, t_touch, self.start, self.target, self.yaw_start, self.yaw_target,
-            self.height, t, c,
+            self.height, t, c, self.top,
         )  # fmt: skip
 
     def _horizontal(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
