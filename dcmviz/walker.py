@@ -44,12 +44,12 @@ from dcmviz.gait import (
     horizon_steps,
     on_terrain,
     plan_footsteps,
+    timing,
     timing_of,
 )
-from dcmviz.gait import timing
 from dcmviz.recovery import Candidate
-from dcmviz.robots.geometry import sole_corners
 from dcmviz.robots import get_spec
+from dcmviz.robots.geometry import sole_corners
 from dcmviz.state import SIDES, FootTarget, MeasuredState, WalkerCommand
 from dcmviz.terrain import EDGE_MARGIN_M, terrain_of
 

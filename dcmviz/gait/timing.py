@@ -75,9 +75,7 @@ def nominal_duration(plan: GaitPlan, phase: int) -> float:
     return float(plan.preview.durations[phase])
 
 
-def timing_candidates(
-    plan: GaitPlan, local: float, phases: int = PHASES
-) -> list[np.ndarray]:
+def timing_candidates(plan: GaitPlan, local: float, phases: int = PHASES) -> list[np.ndarray]:
     """Durations (the whole plan's) to compare: the present phase (local time ``local``) and the
     next ``phases − 1`` ss/ds phases take each of their scales (nominal first)."""
     durations = plan.preview.durations
