@@ -151,7 +151,6 @@ class Walker:
         self._timing_target: np.ndarray | None = None
         self._retime_tick = 0
         self._last_slack = 0.0  # m, the recovery QP's CoP shortfall at the last tick
-        self._shift = np.zeros(3)
         self.placed: dict[str, Footstep] = dict(start)  # where each foot stands (committed)
         self._nominal_feet: dict[str, Footstep] = dict(start)  # continuous mode: nominal cursor
         self.swing: SwingTrajectory | None = None
@@ -208,7 +207,6 @@ class Walker:
 
         if local >= preview.duration:  # the plan has ended: stand on its final VRP (D3)
             xi_ref = v_ref = preview.waypoints[-1] + shift
-        self._shift = shift  # the CoP capacity of the recovery QP is around v_ref (eq. 47)
         xi_adj = xi_ref + self._adjust(t, local, xi - xi_ref) if cfg.step_adjustment else xi_ref
         if not cfg.step_adjustment:
             self.adjusted_target, self.recovery_target = None, None
@@ -358,9 +356,9 @@ class Walker:
         lo = (1.0 - s) * boxes[0][0] + s * boxes[-1][0]
         hi = (1.0 - s) * boxes[0][1] + s * boxes[-1][1]
         g = 1.0 - math.exp(-CAPACITY_TIME_CONSTANTS)
-        v = (plan.preview.vrp(local) + self._shift)[:2] if local < plan.duration else (
-            plan.preview.waypoints[-1][:2] + self._shift[:2]
-        )  # fmt: skip
+        # the nominal VRP: with the observer both v_ref and the soles' image in VRP space move
+        # by the same −b²F̂/m (eqs. 47-49), so the CoP's room is read without that shift
+        v = plan.preview.vrp(local)[:2] if local < plan.duration else plan.preview.waypoints[-1][:2]
         lo = np.minimum(g * (lo - v), 0.0)
         hi = np.maximum(g * (hi - v), 0.0)
         return recovery.Capacity(np.eye(2), lo, hi)
