@@ -62,7 +62,23 @@ class PresetFootstep(_Section):
 
 
 class RobotSection(_Section):
-    model: Literal["talos", "g1"] = "talos"
+    model: str = _field(
+        "talos",
+        description="a built-in robot (talos, g1, romeo) or the path of a robot file "
+        "(docs/robots.md)",
+    )
+
+    @field_validator("model")
+    @classmethod
+    def _robot_file_loads(cls, v: str) -> str:
+        from dcmviz.robots.file import RobotFileError
+        from dcmviz.robots.model import build_model
+
+        try:
+            build_model(v)  # the whole robot file is checked: nothing half-loads
+        except RobotFileError as err:
+            raise ValueError(str(err)) from None
+        return v
 
 
 class GaitSection(_Section):

@@ -16,7 +16,7 @@ from typing import Any
 import viser
 
 from dcmviz.config import Config, field_info
-from dcmviz.robots import RobotSpec, get_spec
+from dcmviz.robots import BUILTIN_ROBOTS, RobotSpec, get_spec
 
 
 @dataclass(frozen=True)
@@ -197,10 +197,15 @@ class Controls:
 
     def show(self, config: Config) -> None:
         """Write a config into the controls without triggering the change callbacks."""
-        if config.robot.model != self.robot.name:
-            self.set_robot(get_spec(config.robot.model))
+        robot = get_spec(config.robot.model)
+        if robot != self.robot:
+            self.set_robot(robot)
         self._quiet.on = True
         try:
+            dropdown = self.handles.get(("robot", "model"))
+            if dropdown is not None and config.robot.model not in dropdown.options:
+                # the built-in robots plus the loaded preset's robot file
+                dropdown.options = (*BUILTIN_ROBOTS, config.robot.model)
             for (section, name), handle in self.handles.items():
                 value = getattr(getattr(config, section), name)
                 if isinstance(handle.value, str):
