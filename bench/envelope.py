@@ -51,15 +51,19 @@ ENVELOPES = {
 
 
 def scaled_envelope(spec) -> Envelope:
-    """Talos's envelope scaled by the robot's standing CoM height, its step widths and turns kept
-    inside the robot's reach (from ``min_step_width_m`` + 1 cm; |turn| ≤ ``max_turn_rad``)."""
+    """Talos's envelope scaled by the robot's standing CoM height, its step lengths, widths and
+    turns kept inside the robot's reach (steps up to the share of ``max_step_length_m`` Talos
+    walks, 0.40 / 0.45; widths from ``min_step_width_m`` + 1 cm; |turn| ≤ ``max_turn_rad``)."""
     talos = ENVELOPES["talos"]
     s = spec.com_height_m / get_spec("talos").com_height_m
     lo_w = max(talos.step_width[0] * s, spec.min_step_width_m + 0.01)
     hi_w = min(max(talos.step_width[1] * s, lo_w + 0.05), spec.max_step_width_m)
     turn = min(talos.turn[1], spec.max_turn_rad)
+    # Talos walks its envelope up to 0.40 of its 0.45 m reach: the same share of the robot's
+    share = talos.step_length[1] / get_spec("talos").max_step_length_m
+    longest = min(talos.step_length[1] * s, share * spec.max_step_length_m)
     return Envelope(
-        step_length=(talos.step_length[0] * s, talos.step_length[1] * s),
+        step_length=(max(talos.step_length[0] * s, -longest), longest),
         step_width=(lo_w, hi_w),
         turn=(-turn, turn),
     )

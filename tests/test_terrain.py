@@ -140,3 +140,24 @@ def test_a_recording_draws_the_stairs(tmp_path) -> None:
         centers[:-1, 0] - half[:-1, 0], 0.15 + 0.30 * np.arange(9), atol=1e-6
     )
     assert centers[-1, 0] + half[-1, 0] == pytest.approx(0.15 + 0.30 * 10 + 1.5)
+
+
+def test_the_dashboard_draws_the_terrain_of_the_preset_and_removes_it() -> None:
+    """TerrainView: a box per tread at /terrain/<i> (floor to tread), none for a flat preset."""
+    viser = pytest.importorskip("viser")
+    from helpers import free_port
+
+    from dcmviz.dashboard.terrain_view import TerrainView
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    try:
+        view = TerrainView(server.scene)
+        view.show(stairs(0.15))
+        assert [h.name for h in view.handles] == [f"/terrain/{i}" for i in range(10)]
+        for i, h in enumerate(view.handles):
+            assert h.position[2] + 0.5 * h.dimensions[2] == pytest.approx(0.15 * (i + 1))
+            assert h.position[2] - 0.5 * h.dimensions[2] == pytest.approx(0.0)
+        view.show(stairs(0.15).replace(terrain=None))
+        assert view.handles == []
+    finally:
+        server.stop()

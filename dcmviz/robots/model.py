@@ -42,6 +42,7 @@ STEP_WIDTH_PER_LEG = 0.62  # max distance between the feet per m of leg length
 STEP_HEIGHT_PER_LEG = 0.18  # max |Δz| of a step per m of leg length
 FEET_GAP_M = 0.01  # min distance between the soles' inner edges
 FASTEST_SWING_S = 0.5  # the swing foot crosses 2 × max step length in this time at most
+REACH_FRACTION = 0.7  # at touchdown the front foot is this fraction of the step ahead of the CoM
 TURN_PER_HIP_YAW = 0.5  # max turn per step per rad of the hip yaw's smaller side of its range
 MAX_TURN_RAD = 0.5  # the preset schema's bound on gait.turn
 # actuator defaults per kg of robot (Talos: 0.05 kg m², 0.2 N m s/rad at 90.27 kg)
@@ -74,6 +75,7 @@ class Derived:
     min_com_height_m: float
     max_com_height_m: float
     min_height_reason: str  # what stops the squat
+    stride_reason: str  # what stops the longest step
     max_step_length_m: float
     max_step_width_m: float
     min_step_width_m: float
@@ -278,23 +280,27 @@ def _edit_urdf(
 
 def solve_posture(
     model, q: np.ndarray, sole_frames: dict[str, int], com_height: float | None = None,
-    iterations: int = 30,
+    iterations: int = 30, targets: dict | None = None, com: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float]:  # fmt: skip
     """The posture closest to ``q`` with the CoM above the middle of the soles (x, y) — and at
     ``com_height`` above them if given — and the soles where they are (flat, on the floor):
     Gauss-Newton on the legs and base position, e = [log6(oMf_d⁻¹ oMf) per sole; c - c_d],
-    Δq = -J⁺ e (base orientation kept).  Returns q and the final |e|."""
+    Δq = -J⁺ e (base orientation kept).  ``targets`` (side → SE3) and ``com`` (3,) replace the
+    soles' and the CoM's goals.  Returns q and the final |e|."""
     import pinocchio as pin
 
     data = model.createData()
     q = q.copy()
     pin.framesForwardKinematics(model, data, q)
-    targets = {s: data.oMf[f].copy() for s, f in sole_frames.items()}
+    if targets is None:
+        targets = {s: data.oMf[f].copy() for s, f in sole_frames.items()}
     middle = np.mean([t.translation[:2] for t in targets.values()], axis=0)
     if com_height is not None:
         sole_z = np.mean([t.translation[2] for t in targets.values()])
         middle = np.r_[middle, sole_z + com_height]
-    rows_com = slice(0, 3 if com_height is not None else 2)
+    if com is not None:
+        middle = np.asarray(com, dtype=float)
+    rows_com = slice(0, 3 if (com_height is not None or com is not None) else 2)
     cols = np.r_[0:3, 6 : model.nv]  # base translation and joints
     norm = math.inf
     for _ in range(iterations):
@@ -351,6 +357,42 @@ def _posture_problem(model, data, q, sole_frames, limits, names, mass) -> str:
                     f"(limit {limits[name].torque_nm:.0f} N m)"
                 )
     return ""
+
+
+def _longest_stride(
+    model, q_nominal, sole_frames, limits, names, height, top, D, longest
+) -> tuple[float, str]:  # fmt: skip
+    """The longest step L (m, 1 cm steps up to ``longest``) whose touchdown posture exists: front
+    sole REACH_FRACTION L ahead of the CoM, the rear one the rest behind, both flat, the CoM as
+    high as the legs allow, H = min(standing, H_max − D + √(D² − (REACH_FRACTION L)²)) (the
+    plan's height rule, dcmviz.gait.height), every leg joint inside its range (no margin: the
+    range is where the reach ends)."""
+    import pinocchio as pin
+
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q_nominal)
+    base = {s: data.oMf[f].copy() for s, f in sole_frames.items()}
+    mid = np.mean([t.translation for t in base.values()], axis=0)
+    q, best, reason = q_nominal, 0.0, f"{STEP_LENGTH_PER_LEG} × hip → sole"
+    L = 0.05
+    while L <= longest + 1e-9:
+        span = REACH_FRACTION * L
+        h = min(height, top - D + math.sqrt(max(D * D - span * span, 0.0)))
+        targets = {s: t.copy() for s, t in base.items()}
+        targets["left"].translation = base["left"].translation + [span, 0.0, 0.0]
+        targets["right"].translation = base["right"].translation - [L - span, 0.0, 0.0]
+        q_try, residual = solve_posture(
+            model, q, sole_frames, targets=targets, com=np.r_[mid[:2], mid[2] + h], iterations=50
+        )
+        if residual > 1e-6:
+            return best, f"no touchdown posture for a {L:.2f} m step"
+        for i, name in enumerate(names):
+            lim, angle = limits[name], q_try[7 + i]
+            if not lim.lower_rad <= angle <= lim.upper_rad:
+                return best, f"{name} reaches its range at a {L:.2f} m step"
+        best, q = L, q_try
+        L = round(L + 0.01, 10)
+    return max(best, longest), reason
 
 
 def _derive(model, q_nominal, sole_frames, legs, joint_names, limits, rf) -> Derived:
@@ -435,7 +477,12 @@ def _derive(model, q_nominal, sole_frames, legs, joint_names, limits, rf) -> Der
         ankle_above.append(data.oMi[model.getJointId(ankle)].translation[2] - sole_z)
     hip_below_com, ankle_above_sole = float(np.mean(hip_below)), float(np.mean(ankle_above))
     foot_width = rf.feet.left.size[1]
-    step_length = STEP_LENGTH_PER_LEG * leg_length
+    top = max(highest, height)
+    D = top - hip_below_com - ankle_above_sole
+    step_length, stride_reason = _longest_stride(
+        model, q_nominal, sole_frames, limits, joint_names, height, top, D,
+        STEP_LENGTH_PER_LEG * leg_length,
+    )  # fmt: skip
     return Derived(
         mass_kg=mass,
         com_height_m=height,
@@ -449,6 +496,7 @@ def _derive(model, q_nominal, sole_frames, legs, joint_names, limits, rf) -> Der
         max_com_height_m=max(highest, height),
         min_height_reason=reason,
         max_step_length_m=step_length,
+        stride_reason=stride_reason,
         max_step_width_m=STEP_WIDTH_PER_LEG * leg_length,
         min_step_width_m=foot_width + FEET_GAP_M,
         max_step_height_m=STEP_HEIGHT_PER_LEG * leg_length,
@@ -660,6 +708,7 @@ def report(rm: RobotModel) -> str:
         f"  standing: hip (roll) {d.hip_below_com_m:.3f} m below the CoM, ankle (pitch) "
         f"{d.ankle_above_sole_m:.3f} m above the sole",
         f"  lowest CoM stops at: {d.min_height_reason}",
+        f"  longest step stops at: {d.stride_reason}",
         f"  hip yaw joints: {', '.join(d.hip_yaw) or '(none)'}",
     ]
     rows = (
