@@ -564,6 +564,7 @@ class Walker:
                 landed=step.side,
                 t0=t_touch,
                 spec=self.spec,
+                nominal_feet=self._nominal_feet,
             )
             self.nominal_plan = self.plan  # the horizon as generated, before any adjustment
             self._nominal_durations = self.plan.preview.durations.copy()

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from dcmviz.config import Config
@@ -110,6 +110,15 @@ walks = st.fixed_dictionaries(
     max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow], derandomize=True
 )
 @given(walks)
+@example(  # continuous mode: a push moves the first footstep 0.25 m; the walk then lowers the VRP
+    # by what the nominal strides need, not the adjusted one (was a 2.4 cm jump of ξ_adj's z)
+    {
+        "order": 5, "mode": "continuous", "b": 0.30, "step_length": 0.2566, "step_width": 0.17,
+        "t_ss": 0.9055, "t_ds": 0.1523, "t_start": 1.0, "t_stop": 1.0, "k_xi": 3.0,
+        "step_adjustment": True, "recovery": "next_step", "observer": True,
+        "pushes": [(1.5066, 0.2228, 87.32, 0.4851)],
+    }
+)  # fmt: skip
 def test_adapted_reference_and_commanded_vrp_never_jump(w: dict) -> None:
     config = Config().replace(
         sim={"backend": "lip"},
