@@ -1,6 +1,6 @@
 """Tracking across a robot's walking envelope: random settings, one walk each (issue 9, item 4).
 
-    python bench/envelope.py --robot talos --n 40 --seed 1 [--sim mujoco|lip] [--jobs 2]
+    python bench/envelope.py --robot talos|g1|romeo|PATH --n 40 --seed 1 [--sim mujoco|lip] [--jobs 2]
 
 Each setting is drawn uniformly from the robot's envelope (step length, width, turn, T_ss, T_ds,
 CoM height → b, k_ξ, order, mode, step adjustment and observer on/off) and walked without
@@ -50,13 +50,31 @@ ENVELOPES = {
 }
 
 
+def scaled_envelope(spec) -> Envelope:
+    """Talos's envelope scaled by the robot's standing CoM height, its step lengths, widths and
+    turns kept inside the robot's reach (steps up to the share of ``max_step_length_m`` Talos
+    walks, 0.40 / 0.45; widths from ``min_step_width_m`` + 1 cm; |turn| ≤ ``max_turn_rad``)."""
+    talos = ENVELOPES["talos"]
+    s = spec.com_height_m / get_spec("talos").com_height_m
+    lo_w = max(talos.step_width[0] * s, spec.min_step_width_m + 0.01)
+    hi_w = min(max(talos.step_width[1] * s, lo_w + 0.05), spec.max_step_width_m)
+    turn = min(talos.turn[1], spec.max_turn_rad)
+    # Talos walks its envelope up to 0.40 of its 0.45 m reach: the same share of the robot's
+    share = talos.step_length[1] / get_spec("talos").max_step_length_m
+    longest = min(talos.step_length[1] * s, share * spec.max_step_length_m)
+    return Envelope(
+        step_length=(max(talos.step_length[0] * s, -longest), longest),
+        step_width=(lo_w, hi_w),
+        turn=(-turn, turn),
+    )
+
+
 def draw(robot: str, rng: np.random.Generator) -> dict:
     """One random setting of the envelope, as preset sections."""
     env = ENVELOPES.get(robot)
     spec = get_spec(robot)
-    if env is None:  # a robot file: scale Talos's envelope by leg length
-        s = spec.com_height_m / get_spec("talos").com_height_m
-        env = Envelope(step_length=(-0.15 * s, 0.40 * s), step_width=(0.16 * s, 0.30 * s))
+    if env is None:  # another robot: Talos's envelope scaled by the CoM height, inside its reach
+        env = scaled_envelope(spec)
     height = rng.uniform(*spec.com_height_range_m)
     u = lambda r: float(rng.uniform(*r))  # noqa: E731
     return {
@@ -142,9 +160,24 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--robot", default="talos", help="built-in name or robot file")
     p.add_argument("--n", type=int, default=40, help="random settings")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--sim", choices=("mujoco", "lip"), default="mujoco")
+    p.add_argument(
+        "--sim", nargs="?", const="mujoco", choices=("mujoco", "lip"), default="mujoco",
+        help="backend (a bare --sim is mujoco)",
+    )  # fmt: skip
     p.add_argument("--jobs", type=int, default=2, help="parallel walks (processes)")
     args = p.parse_args(argv)
+    try:
+        spec = get_spec(args.robot)  # a built-in name or a robot file, checked as a whole
+    except ValueError as err:
+        print(f"--robot {args.robot}: {err}", file=sys.stderr)
+        return 2
+    if args.robot not in ENVELOPES:
+        env = scaled_envelope(spec)
+        print(
+            f"{spec.name}: envelope step_length {env.step_length[0]:+.3f}…{env.step_length[1]:+.3f} m, "
+            f"step_width {env.step_width[0]:.3f}…{env.step_width[1]:.3f} m, turn ±{env.turn[1]:.3f} rad, CoM height "
+            f"{spec.min_com_height_m:.3f}–{spec.max_com_height_m:.3f} m"
+        )
     rng = np.random.default_rng(args.seed)
     jobs = [(i, draw(args.robot, rng), args.sim) for i in range(args.n)]
     t0 = time.perf_counter()

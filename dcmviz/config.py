@@ -62,7 +62,23 @@ class PresetFootstep(_Section):
 
 
 class RobotSection(_Section):
-    model: Literal["talos", "g1"] = "talos"
+    model: str = _field(
+        "talos",
+        description="a built-in robot (talos, g1, romeo) or the path of a robot file "
+        "(docs/robots.md)",
+    )
+
+    @field_validator("model")
+    @classmethod
+    def _robot_file_loads(cls, v: str) -> str:
+        from dcmviz.robots.file import RobotFileError
+        from dcmviz.robots.model import build_model
+
+        try:
+            build_model(v)  # the whole robot file is checked: nothing half-loads
+        except RobotFileError as err:
+            raise ValueError(str(err)) from None
+        return v
 
 
 class GaitSection(_Section):
@@ -136,11 +152,13 @@ class ControlSection(_Section):
         ge=0.0,
         le=1.0,
     )
-    recovery: Literal["next_step", "multi_step"] = _field(
+    recovery: Literal["next_step", "multi_step", "multi_step_timing"] = _field(
         "next_step",
         description=(
             "next_step: the paper's adjustment of the next footstep (eqs. 27–35); multi_step: "
-            "the next three footsteps share the DCM error through one QP on the same maps"
+            "the next three footsteps share the DCM error through one QP on the same maps, "
+            "bounded by what the CoP can still do; multi_step_timing: the same, and the present "
+            "and next two phases may end earlier or later"
         ),
     )
     observer: bool = _field(True, description="momentum-based disturbance observer, eqs. 42–49")

@@ -167,11 +167,15 @@ def test_b_range_follows_the_robots_com_heights(robot):
     assert GRAVITY * hi**2 == pytest.approx(spec.max_com_height_m, abs=1e-12)
     assert spec.min_com_height_m < spec.com_height_m < spec.max_com_height_m
     assert lo < spec.b_nominal_s < hi
+    # a gait within the robot's reach (Romeo's steps end at 0.18 m)
+    gait = {"step_length": min(0.2, spec.max_step_length_m), "step_width": spec.foot_spacing_m}
     for b in (lo, hi, spec.b_nominal_s):  # a b control over this range never offers a refused b
-        assert config_from_dict({"robot": {"model": robot}, "dcm": {"b": b}}).dcm.b == b
+        assert (
+            config_from_dict({"robot": {"model": robot}, "gait": gait, "dcm": {"b": b}}).dcm.b == b
+        )
     for b in (lo - 1e-4, hi + 1e-4):
         with pytest.raises(ConfigError, match="dcm.b"):
-            config_from_dict({"robot": {"model": robot}, "dcm": {"b": b}})
+            config_from_dict({"robot": {"model": robot}, "gait": gait, "dcm": {"b": b}})
 
 
 @pytest.mark.parametrize("path", PRESETS, ids=lambda p: p.stem)

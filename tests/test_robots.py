@@ -1,4 +1,4 @@
-"""Robot models: spec table vs loaded models, MuJoCo ⇄ Pinocchio maps (independent checks)."""
+"""Robot models: robot files vs loaded models, MuJoCo ⇄ Pinocchio maps (independent checks)."""
 
 from __future__ import annotations
 
@@ -13,11 +13,11 @@ import pytest
 from dcmviz.robots import SPECS
 from dcmviz.sim.robots import SIDES, load_robot, robots_dir
 
-ROBOTS = ("talos", "g1")
+ROBOTS = ("talos", "g1", "romeo")
 
 
 def test_unknown_robot_is_refused():
-    with pytest.raises(ValueError, match="talos"):
+    with pytest.raises(ValueError, match="talos, g1, romeo"):
         load_robot("atlas")
 
 
@@ -71,6 +71,11 @@ def test_foot_size_matches_urdf_collision_geometry():
     )
     assert np.ptp(xyz[:, 0]) == pytest.approx(SPECS["g1"].foot_length_m, abs=0.005)
     assert np.ptp(xyz[:, 1]) == pytest.approx(SPECS["g1"].foot_width_m, abs=0.005)
+    # Romeo: the SRDF's foot size (0.1935 × 0.121 m) without the toe tip of the collision mesh
+    srdf = ET.parse(os.path.join(robots_dir(), "romeo_description/srdf/romeo.srdf")).getroot()
+    size = srdf.find("specificities/feet/left/size")
+    assert SPECS["romeo"].foot_width_m == pytest.approx(float(size.get("width")), abs=0.002)
+    assert SPECS["romeo"].foot_length_m == pytest.approx(float(size.get("height")), abs=0.03)
 
 
 @pytest.mark.parametrize("name", ROBOTS)

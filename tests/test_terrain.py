@@ -115,3 +115,49 @@ def test_terrain_is_validated() -> None:
         loads_preset("[terrain.stairs]\nrise = 0.0")
     with pytest.raises(ConfigError, match="step_height"):
         loads_preset("[gait]\nstep_height = 0.05\n[terrain.stairs]\nrise = 0.1")
+
+
+def test_a_recording_draws_the_stairs(tmp_path) -> None:
+    """rerun: the stairs as solid boxes under world/terrain, each from the floor to its tread
+    (tread i, 0.30 m deep, i·0.15 m high; the last one runs on as the 1.5 m landing)."""
+    import rerun
+
+    from dcmviz.record import record_session
+
+    path = record_session(Session(stairs(0.15), backend="lip"), tmp_path / "stairs.rrd", 0.2)
+    chunks = [
+        c.to_record_batch()
+        for c in rerun.chunk.RrdReader(str(path)).store().stream()
+        if c.is_static and str(c.entity_path) == "/world/terrain"
+    ]
+    assert len(chunks) == 1
+    centers = np.array(chunks[0].column("Boxes3D:centers").to_pylist()[0])
+    half = np.array(chunks[0].column("Boxes3D:half_sizes").to_pylist()[0])
+    tops = centers[:, 2] + half[:, 2]
+    np.testing.assert_allclose(tops, 0.15 * np.arange(1, 11), atol=1e-6)
+    np.testing.assert_allclose(centers[:, 2] - half[:, 2], 0.0, atol=1e-6)  # on the floor
+    np.testing.assert_allclose(
+        centers[:-1, 0] - half[:-1, 0], 0.15 + 0.30 * np.arange(9), atol=1e-6
+    )
+    assert centers[-1, 0] + half[-1, 0] == pytest.approx(0.15 + 0.30 * 10 + 1.5)
+
+
+def test_the_dashboard_draws_the_terrain_of_the_preset_and_removes_it() -> None:
+    """TerrainView: a box per tread at /terrain/<i> (floor to tread), none for a flat preset."""
+    viser = pytest.importorskip("viser")
+    from helpers import free_port
+
+    from dcmviz.dashboard.terrain_view import TerrainView
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    try:
+        view = TerrainView(server.scene)
+        view.show(stairs(0.15))
+        assert [h.name for h in view.handles] == [f"/terrain/{i}" for i in range(10)]
+        for i, h in enumerate(view.handles):
+            assert h.position[2] + 0.5 * h.dimensions[2] == pytest.approx(0.15 * (i + 1))
+            assert h.position[2] - 0.5 * h.dimensions[2] == pytest.approx(0.0)
+        view.show(stairs(0.15).replace(terrain=None))
+        assert view.handles == []
+    finally:
+        server.stop()

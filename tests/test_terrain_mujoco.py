@@ -6,17 +6,20 @@ MuJoCo's measured state, not against the planner's output.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
 
-from dcmviz.config import Config, loads_preset
+from dcmviz.config import Config, load_preset, loads_preset
 from dcmviz.robots import get_spec
 from dcmviz.robots.geometry import sole_corners
 from dcmviz.session import Session
 from dcmviz.terrain import terrain_of
 
 RISE, RUN, COUNT, START = 0.15, 0.30, 2, 0.15
+PRESETS = Path(__file__).resolve().parents[1] / "presets"
 
 SHORT_STAIRS = """
 [gait]
@@ -112,3 +115,43 @@ def test_talos_walks_a_short_staircase(rise: float) -> None:
     # both feet end on the top landing (the floor) at its height
     for side in ("left", "right"):
         assert session.last_state.feet[side][2] == pytest.approx(tread_height(0.9, rise), abs=5e-3)
+
+
+def test_g1_climbs_a_short_staircase_of_8_cm() -> None:
+    """The G1 (presets/stairs_g1.toml, shortened to two treads): its soles land on treads at
+    0.08 and 0.16 m, horizontal DCM error below 3 cm, no fall."""
+    config = load_preset(PRESETS / "stairs_g1.toml")
+    config = config.replace(
+        gait={**config.gait.model_dump(), "n_steps": 4},
+        terrain={"stairs": {**config.terrain.stairs.model_dump(), "count": 2}},
+    )
+    session = Session(config)
+    session.run(1.0 + 4 * 0.9 + 1.0)
+    assert not session.fell and session.steps_completed == 4
+    error = session.history()["xi"] - session.history()["xi_ref"]
+    assert np.linalg.norm(error[:, :2], axis=1).max() < 0.03
+    for side in ("left", "right"):  # both on the landing (the second tread), 0.16 m high
+        assert session.last_state.feet[side][0] == pytest.approx(0.75, abs=0.03)
+        assert session.last_state.feet[side][2] == pytest.approx(0.16, abs=5e-3)
+
+
+def test_a_lateral_push_of_20_newton_seconds_on_the_stairs_is_survived() -> None:
+    """presets/stairs_up.toml, 100 N for 0.2 s to the left during the third step (on the
+    0.15 m stairs): the observer sees the push, the swinging foot lands further left, still
+    flat on its tread at its height, and the DCM error returns below 3 cm (horizontal)."""
+    config = load_preset(PRESETS / "stairs_up.toml")
+    session = Session(config)
+    session.push((0.0, 100.0, 0.0), 0.2, start=3.8)
+    session.run(7.0)
+    assert not session.fell
+    h = session.history()
+    during = (h["t"] >= 3.8) & (h["t"] < 4.0)
+    assert h["f_hat"][during, 1].max() > 30.0  # the observer's estimate of the 100 N push
+    spec = get_spec("talos")
+    third = session.realised_steps()[2]
+    assert third.adjustment[1] > 0.05  # stepped left to catch the push
+    assert third.position[0] == pytest.approx(0.90, abs=0.03)  # on its tread (0.75–1.05 m)
+    corners = sole_corners(third.position, 0.0, spec.foot_length_m, spec.foot_width_m)
+    assert {int(np.floor((c[0] - START) / RUN)) + 1 for c in corners} == {3}  # all on tread 3
+    error = h["xi"] - h["xi_ref"]
+    assert np.linalg.norm(error[-50:, :2], axis=1).max() < 0.03

@@ -7,6 +7,13 @@ import viser
 from dcmviz.config import Config
 from dcmviz.dashboard.gui import Controls
 from dcmviz.dashboard.loop import SimLoop
+from dcmviz.robots import BUILTIN_ROBOTS
+
+
+def robot_options(config: Config) -> tuple[str, ...]:
+    """The robot dropdown: the built-in robots, then the loaded preset's robot file if any."""
+    model = config.robot.model
+    return BUILTIN_ROBOTS if model in BUILTIN_ROBOTS else (*BUILTIN_ROBOTS, model)
 
 
 class SimPanel:
@@ -29,7 +36,7 @@ class SimPanel:
             self.gui_speed.on_update(lambda event: self.on_speed(event.target.value))
             controls.add_field_dropdown("gait", "mode", "mode", ("plan", "continuous"), config)
             controls.add_field_dropdown("sim", "backend", "backend", ("mujoco", "lip"), config)
-            controls.add_field_dropdown("robot", "model", "robot", ("talos", "g1"), config)
+            controls.add_field_dropdown("robot", "model", "robot", robot_options(config), config)
             self.gui_loop = gui.add_checkbox(
                 "Loop the plan", initial_value=True, hint="Restart when the plan has ended"
             )

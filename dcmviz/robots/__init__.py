@@ -1,9 +1,21 @@
-"""Robot facts for planning and validation (no MuJoCo, no Pinocchio): size, reach, feet, bodies.
+"""Robots as files: the robot file schema (:mod:`.file`), the model and derived numbers
+(:mod:`.model`, Pinocchio), planning facts (:mod:`.spec`: size, reach, feet, bodies) and reach.
 
-The models themselves (URDF → Pinocchio + MuJoCo) are built in :mod:`dcmviz.sim.robots`.
+The MuJoCo model is built in :mod:`dcmviz.sim.robots`.  ``python -m dcmviz.robots NAME|PATH``
+prints what a robot file derives.
 """
 
+from dcmviz.robots.file import BUILTIN_ROBOTS, RobotFileError
 from dcmviz.robots.reach import clamp_to_reach, reach_problem
 from dcmviz.robots.spec import ROBOT_NAMES, SPECS, RobotSpec, get_spec
 
-__all__ = ["ROBOT_NAMES", "SPECS", "RobotSpec", "clamp_to_reach", "get_spec", "reach_problem"]
+__all__ = [
+    "BUILTIN_ROBOTS",
+    "ROBOT_NAMES",
+    "SPECS",
+    "RobotFileError",
+    "RobotSpec",
+    "clamp_to_reach",
+    "get_spec",
+    "reach_problem",
+]

@@ -54,6 +54,11 @@ def check_reachable(spec: RobotSpec, gait: Any) -> None:
                 f"(step_length + step_width·tan(|turn|/2)), out of {spec.name}'s reach; allowed "
                 f"≤ {spec.max_step_length_m} m"
             )
+        if abs(gait.turn) > spec.max_turn_rad + 1e-12:
+            raise ValueError(
+                f"gait.turn = {gait.turn}: {spec.name}'s hip yaw joints cannot turn that far per "
+                f"step; allowed |turn| ≤ {spec.max_turn_rad:.3f} rad"
+            )
         if w < spec.min_step_width_m:
             raise ValueError(
                 f"gait.step_width = {w}: the feet of {spec.name} collide; allowed "

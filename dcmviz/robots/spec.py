@@ -1,15 +1,19 @@
-"""Planning facts about each robot, cheap to import (no MuJoCo, no Pinocchio).
+"""Planning facts about a robot: size, reach, feet, bodies (no MuJoCo).
 
-The numbers are checked against the loaded models in ``tests/test_robots.py``; the models
-themselves are built in :mod:`dcmviz.sim.robots`.
+A :class:`RobotSpec` comes from a robot file (``dcmviz/robots/data/*.toml`` for the built-ins,
+any path for the user's): the numbers the file pins, the rest derived from its model with
+Pinocchio (:mod:`dcmviz.robots.model`).  Importing this module is cheap; the first
+:func:`get_spec` of a robot builds its Pinocchio model (≈ 0.1 s).
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 
 from dcmviz import GRAVITY
 from dcmviz.dcm.control import vrp_height
+from dcmviz.robots.file import BUILTIN_ROBOTS, RobotFileError
 
 
 @dataclass(frozen=True)
@@ -29,6 +33,7 @@ class RobotSpec:
     min_com_height_m: float  # lowest CoM height above the soles the robot walks at
     max_com_height_m: float  # highest (knees still bent enough to walk)
     bodies: dict[str, str]  # push target name -> link name in the URDF
+    max_turn_rad: float = 0.5  # |yaw| per generated step (gait.turn); 0.5: the schema's bound
     # hip–ankle distance (m) when standing at max_com_height_m: the legs stretch no further while
     # walking, so feet far apart lower the CoM (dcmviz.gait.height); None: no such limit
     leg_length_m: float | None = None
@@ -67,70 +72,33 @@ class RobotSpec:
         )
 
 
-SPECS: dict[str, RobotSpec] = {
-    "talos": RobotSpec(
-        name="talos",
-        mass_kg=90.27,
-        com_height_m=0.877,
-        foot_length_m=0.21,
-        foot_width_m=0.13,
-        foot_spacing_m=0.17,
-        max_step_length_m=0.45,
-        max_step_width_m=0.50,
-        min_step_width_m=0.14,
-        max_step_height_m=0.15,
-        # 2 × 0.45 m (behind the stance foot → in front of it) in 0.5 s
-        max_swing_speed_m_s=1.8,
-        # CoM above the soles in a squat with upright torso and flat feet (hip = ankle = −knee/2):
-        # 0.877 m in half-sitting (knee 0.86 rad); straight legs 0.931 m; 0.90 m at knee ≈ 0.65,
-        # 0.72 m at knee ≈ 1.75 rad (ankle −0.87, limit −1.31)
-        min_com_height_m=0.72,
-        max_com_height_m=0.90,
-        bodies={
-            "torso": "torso_2_link",
-            "pelvis": "base_link",
-            "left_thigh": "leg_left_3_link",
-            "right_thigh": "leg_right_3_link",
-        },
-        # hip 0.129 m below the CoM, ankle 0.107 m above the sole: 0.900 − 0.236
-        leg_length_m=0.664,
-    ),
-    "g1": RobotSpec(
-        name="g1",
-        mass_kg=33.34,
-        com_height_m=0.670,  # above the sole plane of the foot spheres (bottoms 0.035 m below ankle)
-        foot_length_m=0.17,
-        foot_width_m=0.06,
-        foot_spacing_m=0.237,  # sole centres with hip roll 0 in the URDF
-        max_step_length_m=0.30,
-        max_step_width_m=0.40,
-        min_step_width_m=0.10,
-        max_step_height_m=0.10,
-        # 2 × 0.30 m in 0.4 s
-        max_swing_speed_m_s=1.5,
-        # 0.670 m with knee 0.669 rad; straight legs 0.698 m; 0.68 m at knee ≈ 0.55,
-        # 0.56 m at knee ≈ 1.52 rad (ankle −0.76, limit −0.87)
-        min_com_height_m=0.56,
-        max_com_height_m=0.68,
-        bodies={
-            "torso": "torso_link",
-            "pelvis": "pelvis",
-            "left_thigh": "left_hip_yaw_link",
-            "right_thigh": "right_hip_yaw_link",
-        },
-        # hip roll 0.046 m below the CoM, ankle pitch 0.052 m above the sole: 0.680 − 0.098
-        leg_length_m=0.582,
-    ),
-}
+class _BuiltinSpecs(Mapping[str, RobotSpec]):
+    """The built-in robots' specs by name, each built from its robot file when first read."""
 
-ROBOT_NAMES = tuple(SPECS)
+    def __getitem__(self, name: str) -> RobotSpec:
+        if name not in BUILTIN_ROBOTS:
+            raise KeyError(name)
+        return get_spec(name)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(BUILTIN_ROBOTS)
+
+    def __len__(self) -> int:
+        return len(BUILTIN_ROBOTS)
 
 
-def get_spec(name: str) -> RobotSpec:
-    """The spec of robot ``name``; ValueError naming the allowed robots otherwise."""
+SPECS: Mapping[str, RobotSpec] = _BuiltinSpecs()
+ROBOT_NAMES = BUILTIN_ROBOTS
+
+
+def get_spec(model: str) -> RobotSpec:
+    """The spec of ``robot.model``: a built-in robot's name or the path of a robot file
+    (``docs/robots.md``), built and checked once per process and file version.  ValueError
+    (:class:`~dcmviz.robots.file.RobotFileError`) naming ``robot.model``, the file's key and what
+    was expected otherwise."""
+    from dcmviz.robots.model import build_model
+
     try:
-        return SPECS[name]
-    except KeyError:
-        raise ValueError(
-            f"robot.model = {name!r}: unknown robot; allowed: {', '.join(ROBOT_NAMES)}"
-        ) from None
+        return build_model(model).spec
+    except RobotFileError as err:
+        raise RobotFileError(f"robot.model = {model!r}: {err}") from None

@@ -1,4 +1,5 @@
-"""MuJoCo humanoid backend: physics at 1 kHz, state estimation through Pinocchio, pushes, falls.
+"""MuJoCo humanoid backend: physics at 1 kHz, state estimation through Pinocchio, terrain, pushes,
+falls.
 
 Each control tick (``control_dt``): Pinocchio evaluates the simulated state (CoM, ẋ, soles,
 M, h, Jacobians), the whole-body QP (:mod:`dcmviz.sim.wbc`) turns the walker's command into
@@ -46,7 +47,11 @@ def terrain_model(robot: Robot, terrain: Terrain) -> mujoco.MjModel:
 
 
 class MujocoBackend:
-    """A Talos or G1 in MuJoCo, torque-controlled by a whole-body QP."""
+    """A Talos or G1 in MuJoCo, torque-controlled by a whole-body QP.
+
+    With a ``terrain`` its boxes are part of the scene (:func:`terrain_model`), the robot starts
+    standing on the ground under its feet and falls are judged above the terrain; without one
+    (or a flat one) the scene is the robot's own, unchanged."""
 
     name = "mujoco"
 
@@ -177,7 +182,8 @@ class MujocoBackend:
         """Contact wrenches of the soles from MuJoCo (``cfrc_ext`` after ``mj_rnePostConstraint``:
         [τ; f] of each body's external forces about the robot's CoM, world axes): each sole's
         normal force (N) and contact (> 0.1 N), the total contact force (N) and its moment about
-        the CoM (N m). Pushes act on other bodies and are not included."""
+        the CoM (N m). Pushes act on other bodies and are not included. A sole body's wrench sums
+        its contacts with every geom (the floor and any terrain box), so a sole on a tread counts."""
         mujoco.mj_rnePostConstraint(self.model, self.data)
         wrenches = self.data.cfrc_ext[self._sole_bodies]
         self._applied = wrenches[:, 3:].sum(axis=0)

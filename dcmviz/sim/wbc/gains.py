@@ -1,8 +1,16 @@
-"""Gains, weights and limits of the whole-body QP's tasks and constraints."""
+"""Gains, weights and limits of the whole-body QP's tasks and constraints.
+
+The defaults hold for any humanoid without per-robot tuning: task gains are accelerations
+(1/s², 1/s) on errors in m and rad, the force weights act on wrenches divided by the robot's
+mass, and the contact limits (CoP, torsion) come from the robot's sole size.  A robot file may
+still set any field in its ``[controller]`` table (docs/robots.md); :meth:`Gains.for_robot`
+applies them.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 
 @dataclass
@@ -36,3 +44,8 @@ class Gains:
     torsion: float | None = None  # m, |τ_z| ≤ torsion · f_z (None: from the sole's width)
     min_normal_force: float = 5.0  # N on a support foot
     cop_margin: float = 0.9  # fraction of the half sole used for the CoP
+
+    @classmethod
+    def for_robot(cls, robot: Any) -> Gains:
+        """The defaults with the robot file's ``[controller]`` values (``robot.controller``)."""
+        return cls(**dict(getattr(robot, "controller", None) or {}))

@@ -66,7 +66,7 @@ class WholeBodyController:
 
     def __init__(self, robot: Robot, gains: Gains | None = None) -> None:
         self.robot = robot
-        self.gains = g = gains or Gains()
+        self.gains = g = gains or Gains.for_robot(robot)
         self.layout = lay = Layout(robot.nv)
         self.kinematics = Kinematics(robot)
         mass = robot.mass
