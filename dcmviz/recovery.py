@@ -24,6 +24,19 @@ not change when one of them is frozen or committed at its touchdown: the adapted
 ξ_adj = ξ_ref + Σ_j (w(t)·s_j) Δv_j (eqs. 33–35) stays smooth.  With the constraints inactive
 the solution is the weighted least-squares one, which the tests check against a dense solve of
 eq. (28).
+
+Honest leverages (``capacity``).  The condition above takes ξ̃ to persist until each footstep's
+own instant (eq. 31), which is optimistic for a footstep that lands late: the DCM error grows as
+e^{t/b} where the CoP (VRP) saturates, and the footstep after the next one lands 1–1.5 s later.
+What the footsteps must absorb now is read off the same linear maps at the present time:
+ξ_adj(t) = ξ_ref(t) + Σ_j a_j(t) Δv_j with a_j(t) = w(t)·s_j (eqs. 22, 33–35), so the tracking
+error ε = ξ − ξ_adj = ξ̃ − Σ_j a_j(t) Δv_j is what the CoP must remove.  A CoP offset δ held for
+the time τ left on the present support removes ε = (1 − e^{−τ/b}) δ (order 0 per phase:
+ε(τ) = δ + e^{τ/b}(ε − δ) = 0), and v_ref + δ must lie in the support polygon: the constraint
+``capacity`` is lo ≤ R ε ≤ hi (R the polygon's axes), softened by a slack σ with weight
+SLACK_WEIGHT ≫ ρ.  With it the QP asks the later footsteps for what the growing error really
+needs (capture-region reasoning: footsteps and CoP together must capture the DCM), and its
+slack says how far from capturable a timing leaves the robot (``dcmviz.gait.timing``).
 """
 
 from __future__ import annotations
@@ -38,7 +51,26 @@ from dcmviz.robots import RobotSpec
 from dcmviz.state import SIDE_SIGN, Footstep
 
 CONDITION_WEIGHT = 1e4  # ρ: how strongly Σ c_j Δv_j = ξ̃ (eq. 31) is asked for
+SLACK_WEIGHT = 1e7  # weight of σ, the part of ε the CoP cannot remove (``capacity``)
 _INF = 1e30
+
+
+@dataclass(frozen=True)
+class Capacity:
+    """What the CoP can still remove: lo ≤ axes @ ε ≤ hi for ε = ξ − ξ_adj (m)."""
+
+    axes: np.ndarray  # (2, 2) rows: the support polygon's axes in the world frame
+    lo: np.ndarray  # (2,)
+    hi: np.ndarray  # (2,)
+
+
+@dataclass(frozen=True)
+class Solution:
+    """The QP's answer: Δv_j per candidate and σ, the CoP's shortfall (0: capturable)."""
+
+    dv: list[np.ndarray]
+    slack: np.ndarray  # (2,) m, in the capacity's axes
+    step_cost: float  # Σ ω_j |Δv_j|² (m²)
 
 
 @dataclass(frozen=True)
@@ -50,6 +82,7 @@ class Candidate:
     lead_time_s: float  # t_j − t: how far in the future its adjustment instant lies
     fixed: np.ndarray | None = None  # (2,) Δv of a frozen footstep (not a variable)
     box: tuple[np.ndarray, np.ndarray] | None = None  # (lo, hi) of Δv_xy: e.g. the tread's
+    now_leverage: float = 0.0  # a_j(t): ξ_adj change now per metre moved (for ``capacity``)
 
 
 def weights(candidates: list[Candidate], b: float) -> np.ndarray:
@@ -71,16 +104,36 @@ def solve(
 ) -> list[np.ndarray]:
     """Δv_j (each (3,), z = 0) for the candidates, in order; ``stance`` is where the foot stands
     that candidate 0 steps from."""
+    return solve_full(
+        candidates, stance, xi_error, spec, max_adjustment, b, constrained=constrained
+    ).dv
+
+
+def solve_full(
+    candidates: list[Candidate],
+    stance: Footstep,
+    xi_error: np.ndarray,
+    spec: RobotSpec,
+    max_adjustment: float,
+    b: float,
+    *,
+    constrained: bool = True,
+    capacity: Capacity | None = None,
+) -> Solution:
+    """:func:`solve` with the CoP's ``capacity`` (module docstring) and σ, the step cost."""
     free = [i for i, c in enumerate(candidates) if c.fixed is None]
     col = {i: 2 * j for j, i in enumerate(free)}
-    nx = 2 * len(free)
+    n_dv = 2 * len(free)
+    nx = n_dv + (2 if capacity is not None else 0)  # + σ
     e = np.asarray(xi_error, dtype=float)[:2].copy()
+    eps0 = e.copy()  # ε = ξ̃ − Σ a_j Δv_j, the fixed part
     for c in candidates:
         if c.fixed is not None:
             e -= c.leverage * c.fixed
-    if nx == 0:
-        return [np.array([*c.fixed, 0.0]) for c in candidates]
+            eps0 -= c.now_leverage * c.fixed
     omega = weights(candidates, b)
+    if nx == 0:
+        return Solution([np.array([*c.fixed, 0.0]) for c in candidates], np.zeros(2), 0.0)
     lev = np.zeros((2, nx))  # Σ c_j Δv_j as a 2 × nx map
     H = np.zeros((nx, nx))
     for i in free:
@@ -91,6 +144,9 @@ def solve(
     f = -2.0 * CONDITION_WEIGHT * lev.T @ e
     lo = np.full(nx, -max_adjustment)
     up = np.full(nx, max_adjustment)
+    if capacity is not None:
+        H[n_dv:, n_dv:] += 2.0 * SLACK_WEIGHT * np.eye(2)
+        lo[n_dv:], up[n_dv:] = -_INF, _INF
     for i in free:
         if candidates[i].box is not None:
             j = col[i]
@@ -130,20 +186,36 @@ def solve(
             previous = c.nominal
             previous_col = col.get(i)
             previous_fixed = c.fixed if c.fixed is not None else np.zeros(2)
+    if capacity is not None:
+        # lo ≤ R (ε0 − Σ a_j Δv_j) − σ ≤ hi: the CoP removes the rest by the end of its support
+        base = capacity.axes @ eps0
+        for axis in range(2):
+            row = np.zeros(nx)
+            for i in free:
+                row[col[i] : col[i] + 2] = -candidates[i].now_leverage * capacity.axes[axis]
+            row[n_dv + axis] = -1.0
+            rows.append(row)
+            r_lo.append(capacity.lo[axis] - base[axis])
+            r_up.append(capacity.hi[axis] - base[axis])
     A = np.array(rows) if rows else np.zeros((0, nx))
     bl = np.concatenate([lo, np.array(r_lo)])
     bu = np.concatenate([up, np.array(r_up)])
     sense = np.zeros(len(bl), dtype=np.int32)
     x, _, exitflag, _ = daqp.solve(H, f, A, bu, bl, sense)
-    if exitflag != 1 or not np.all(np.isfinite(x)):
+    if exitflag not in (1, 2) or not np.all(np.isfinite(x)):
         x = np.zeros(nx)  # infeasible (a plan already out of reach): leave the footsteps alone
     out = []
+    cost = 0.0
     for i, c in enumerate(candidates):
         if c.fixed is not None:
             out.append(np.array([c.fixed[0], c.fixed[1], 0.0]))
         else:
             out.append(np.array([x[col[i]], x[col[i] + 1], 0.0]))
-    return out
+            cost += omega[i] * float(x[col[i]] ** 2 + x[col[i] + 1] ** 2)
+    slack = x[n_dv:].copy() if capacity is not None else np.zeros(2)
+    if capacity is not None and exitflag not in (1, 2):
+        slack = np.full(2, 1.0)  # unknown: as bad as it gets
+    return Solution(out, slack, cost)
 
 
 def least_squares(candidates: list[Candidate], xi_error: np.ndarray, b: float) -> list[np.ndarray]:

@@ -44,14 +44,23 @@ from dcmviz.gait import (
     horizon_steps,
     on_terrain,
     plan_footsteps,
+    timing,
     timing_of,
 )
 from dcmviz.recovery import Candidate
 from dcmviz.robots import get_spec
+from dcmviz.robots.geometry import sole_corners
 from dcmviz.state import SIDES, FootTarget, MeasuredState, WalkerCommand
 from dcmviz.terrain import EDGE_MARGIN_M, terrain_of
 
 MULTI_STEPS = 3  # footsteps sharing the DCM error with recovery = "multi_step"
+CAPACITY_MARGIN_M = 0.01  # the recovery QP's CoP stays this far inside the soles
+CAPACITY_TIME_CONSTANTS = 1.0  # τ/b: the CoP is credited with removing ε within one b
+QUIET_SLACK_M = 1e-4  # m: below this shortfall a nominal timing is not questioned
+RETIME_PERIOD_S = 0.03  # s between comparisons of candidate timings (multi_step_timing)
+STEP_COST_WEIGHT = 1e-3  # timing score: Σ ω |Δv|² (m²) against σ² (m²) ...
+TIMING_COST_WEIGHT = 1e-3  # ... and Σ (T − T_nominal)² (s²)
+TIMING_HYSTERESIS = 0.8  # a new target timing must score below this fraction of the kept one
 HORIZON_STEPS = 4  # continuous mode: at least this many footsteps previewed ahead
 HORIZON_TIME_CONSTANTS = 15.0  # ... and at least 15 b of walking before the terminal constraint
 
@@ -138,6 +147,10 @@ class Walker:
         )
         self.plan_version += 1
         self.nominal_plan = self.plan
+        self._nominal_durations = self.plan.preview.durations.copy()  # before any re-timing
+        self._timing_target: np.ndarray | None = None
+        self._retime_tick = 0
+        self._last_slack = 0.0  # m, the recovery QP's CoP shortfall at the last tick
         self.placed: dict[str, Footstep] = dict(start)  # where each foot stands (committed)
         self._nominal_feet: dict[str, Footstep] = dict(start)  # continuous mode: nominal cursor
         self.swing: SwingTrajectory | None = None
@@ -159,11 +172,13 @@ class Walker:
         m, b = self.mass, self.b
 
         contact = self.plan.contact(t)
+        touched = False
         if self.swing_step is not None and not (
             contact.kind == "ss" and contact.step == self.swing_step
         ):
             self._touchdown(state)
             contact = self.plan.contact(t)
+            touched = True
         if contact.kind == "ss" and self.swing_step != contact.step:
             self._liftoff(state, contact.step)
 
@@ -178,6 +193,11 @@ class Walker:
         shift = reference_shift(f_hat, m, b) if cfg.observer else np.zeros(3)
         if cfg.observer and state.external_moment is not None:
             shift = shift + moment_shift(state.external_moment, m)
+        # -- step timing (issue 11): re-time the plan before its references are read ----------
+        if cfg.step_adjustment and cfg.recovery == "multi_step_timing" and not touched:
+            if self._retime(t, state.dcm(b), shift):
+                contact = self.plan.contact(t)
+        # -------------------------------------------------------------------------------------
 
         preview = self.plan.preview
         local = t - self.plan.t0
@@ -241,7 +261,7 @@ class Walker:
         k = plan.next_modifiable_step(t)
         if k is None:
             return np.zeros(3)
-        if self.control.recovery == "multi_step":
+        if self.control.recovery in ("multi_step", "multi_step_timing"):
             return self._adjust_multi(t, local, k, xi_error)
         target = self._target(k, xi_error, plan.stance_for(k))
         if self.swing_step == k:
@@ -264,24 +284,14 @@ class Walker:
             self.recovery_target = (k2, target2)
         return delta
 
+    # -- multi-step recovery and step timing (issue 11; dcmviz.recovery, dcmviz.gait.timing) ---
     def _adjust_multi(self, t: float, local: float, k: int, xi_error: np.ndarray) -> np.ndarray:
-        """Δξ_adj with the next MULTI_STEPS footsteps sharing ξ̃ through one QP (dcmviz.recovery)."""
+        """Δξ_adj with the next MULTI_STEPS footsteps sharing ξ̃ through one QP (dcmviz.recovery),
+        their present leverages bounded by what the CoP can still do (``_capacity``)."""
         plan, preview = self.plan, self.plan.preview
-        candidates = []
-        for j in range(k, min(k + MULTI_STEPS, len(plan.steps))):
-            fixed = None
-            if j == k and self.swing_step == k and self.swing.frozen(t):
-                fixed = self.swing.target[:2] - plan.steps[k].position[:2]
-            candidates.append(
-                Candidate(
-                    plan.steps[j], 1.0 / self._gain(j), self._instant(j) - t, fixed,
-                    self._tread_box(plan.steps[j]),
-                )
-            )  # fmt: skip
-        dvs = recovery.solve(
-            candidates, plan.stance_for(k), xi_error, self.spec,
-            self.control.max_step_adjustment, self.b,
-        )  # fmt: skip
+        solution, candidates = self._solve_multi(plan, t, local, k, xi_error)
+        self._last_slack = float(np.linalg.norm(solution.slack))
+        dvs = solution.dv
         delta = np.zeros(3)
         for j, dv in enumerate(dvs, start=k):
             delta = delta + dcm_adjustment(preview, local, plan.selection(j), dv)
@@ -293,13 +303,148 @@ class Walker:
             self.recovery_target = (k + 1, plan.steps[k + 1].position + dvs[1])
         return delta
 
-    def _instant(self, k: int) -> float:
+    def _solve_multi(
+        self, plan: GaitPlan, t: float, local: float, k: int, xi_error: np.ndarray
+    ) -> tuple[recovery.Solution, list[Candidate]]:
+        weights = plan.preview.dcm_weights(local)  # a_j(t) = w(t)·s_j (eqs. 22, 33-35)
+        gain = self._gain if plan is self.plan else (lambda j: self._gain_of(plan, j))
+        candidates = []
+        for j in range(k, min(k + MULTI_STEPS, len(plan.steps))):
+            fixed = None
+            if j == k and self.swing_step == k and self.swing.frozen(t):
+                fixed = self.swing.target[:2] - plan.steps[k].position[:2]
+            selection = plan.selection(j)
+            candidates.append(
+                Candidate(
+                    plan.steps[j], 1.0 / gain(j), self._instant(j, plan) - t,
+                    fixed, self._tread_box(plan.steps[j]), float(weights @ selection),
+                )
+            )  # fmt: skip
+        solution = recovery.solve_full(
+            candidates, plan.stance_for(k), xi_error, self.spec,
+            self.control.max_step_adjustment, self.b, capacity=self._capacity(plan, t, local),
+        )  # fmt: skip
+        return solution, candidates
+
+    def _capacity(self, plan: GaitPlan, t: float, local: float) -> recovery.Capacity:
+        """What the CoP can still remove of ε = ξ − ξ_adj (dcmviz.recovery): an offset δ from
+        v_ref held for CAPACITY_TIME_CONSTANTS · b removes (1 − e^{−τ/b}) δ; v_ref + δ stays
+        CAPACITY_MARGIN_M inside the sole of the stance foot (in its axes).  In double support
+        the box moves linearly from the old stance foot's sole to the new one's (start: from
+        both feet's bounding box; stop: to it), so the capacity, and with it the QP's answer,
+        is continuous at every lift-off and touchdown (ξ_adj never jumps)."""
+        contact = plan.contact(t)
+        kind = contact.kind
+        if kind == "ss":
+            boxes, s = [self._sole_box([self.placed[OTHER[contact.swing_side]]])], 0.0
+        else:
+            T = float(plan.preview.durations[contact.phase]) if kind != "stand" else 1.0
+            s = min(max(contact.t_phase / T, 0.0), 1.0) if kind != "stand" else 1.0
+            both = self._sole_box([self.placed[x] for x in SIDES])
+            k = plan.next_modifiable_step(t)
+            nxt = self._sole_box([plan.stance_for(k)]) if k is not None else both
+            if kind == "ds" and contact.step >= 0:  # after footstep contact.step landed
+                old = self._sole_box([plan.stance_for(contact.step)])
+                boxes = [old, nxt]
+            elif kind == "ds" or kind in ("start_a", "stand"):
+                boxes = [both, both] if kind != "ds" else [both, nxt]
+            elif kind == "start_b":
+                boxes = [both, nxt]
+            else:  # stop: from the last stance foot to both feet
+                last = self._sole_box([plan.stance_for(len(plan.steps) - 1)])
+                boxes = [last, both]
+        lo = (1.0 - s) * boxes[0][0] + s * boxes[-1][0]
+        hi = (1.0 - s) * boxes[0][1] + s * boxes[-1][1]
+        g = 1.0 - math.exp(-CAPACITY_TIME_CONSTANTS)
+        # the nominal VRP: with the observer both v_ref and the soles' image in VRP space move
+        # by the same −b²F̂/m (eqs. 47-49), so the CoP's room is read without that shift
+        v = plan.preview.vrp(local)[:2] if local < plan.duration else plan.preview.waypoints[-1][:2]
+        lo = np.minimum(g * (lo - v), 0.0)
+        hi = np.maximum(g * (hi - v), 0.0)
+        return recovery.Capacity(np.eye(2), lo, hi)
+
+    def _sole_box(self, feet: list[Footstep]) -> tuple[np.ndarray, np.ndarray]:
+        """World-axes bounding box (lo, hi) of the soles, CAPACITY_MARGIN_M inside."""
+        length = self.spec.foot_length_m - 2 * CAPACITY_MARGIN_M
+        width = self.spec.foot_width_m - 2 * CAPACITY_MARGIN_M
+        corners = np.vstack([sole_corners(f.position, f.yaw, length, width) for f in feet])
+        return corners.min(axis=0), corners.max(axis=0)
+
+    def _retime(self, t: float, xi: np.ndarray, shift: np.ndarray) -> bool:
+        """Step timing (``multi_step_timing``, dcmviz.gait.timing): every RETIME_PERIOD_S the
+        candidate timings are compared by the recovery QP's CoP shortfall σ (then step size and
+        distance from the nominal timing); every tick the walked plan's durations move towards
+        the best at most timing.RATE s per s, the swing foot re-timed with them.  True when the
+        plan changed."""
+        plan = self.plan
+        local = t - plan.t0
+        if local < 0.0 or local >= plan.duration:
+            return False
+        k = plan.next_modifiable_step(t)
+        if k is None:
+            return False
+        self._retime_tick += 1
+        nominal = self._nominal_durations
+        at_nominal = np.array_equal(plan.preview.durations, nominal)
+        if at_nominal and self._last_slack < QUIET_SLACK_M:  # capturable as planned: keep it
+            self._timing_target = None
+            return False
+        every = max(1, round(RETIME_PERIOD_S / self.dt))
+        if self._retime_tick % every == 1 % every or self._timing_target is None:
+            phases = timing.PHASES if self.config.gait.mode == "plan" else 1
+            best, best_score, kept_score = None, math.inf, math.inf
+            candidates = timing.timing_candidates(plan, local, phases)
+            previous = self._timing_target
+            if previous is not None and len(previous) == len(plan.preview.durations):
+                candidates.append(previous)
+            for i, durations in enumerate(candidates):
+                p = timing.retimed(plan, durations)
+                error = xi - (p.preview.dcm(local) + shift)
+                solution, _ = self._solve_multi(p, t, local, k, error)
+                score = (
+                    float(solution.slack @ solution.slack)
+                    + STEP_COST_WEIGHT * solution.step_cost
+                    + TIMING_COST_WEIGHT * float(np.sum((durations - nominal) ** 2))
+                )
+                if previous is not None and i == len(candidates) - 1:
+                    kept_score = score
+                elif score < best_score - 1e-12:
+                    best, best_score = durations, score
+            # hysteresis: the target changes only for a clearly better timing (no chattering)
+            if best_score < TIMING_HYSTERESIS * kept_score - 1e-9:
+                self._timing_target = best
+        current = plan.preview.durations
+        if self._timing_target is None or len(self._timing_target) != len(current):
+            return False
+        new = timing.towards(current, self._timing_target, timing.RATE * self.dt)
+        phase = int(plan.preview.phase_at(local)[0])
+        new[:phase] = current[:phase]  # phases already over stay as walked
+        if np.allclose(new, current, rtol=0.0, atol=1e-12):
+            return False
+        self.plan = timing.retimed(plan, new)
+        self.plan_version += 1
+        if self.swing is not None and self.swing_step is not None:
+            t_touch = self.plan.swing_window(self.swing_step)[1]
+            self.swing = self.swing.retime(t, t_touch)
+        return True
+
+    def _instant(self, k: int, plan: GaitPlan | None = None) -> float:
         """Global time of footstep k's adjustment instant (eq. 31): the start of its first
         affected phase, or the end of the plan for the closing step."""
-        plan = self.plan
+        plan = self.plan if plan is None else plan
         if plan.is_closing_step(k):
             return plan.t_end
         return plan.phase_start(plan.first_affected_phase(k))
+
+    @staticmethod
+    def _gain_of(plan: GaitPlan, k: int) -> float:
+        """A_adj of footstep k in ``plan`` (see ``_gain``, which caches it for the walked plan)."""
+        selection = plan.selection(k)
+        if plan.is_closing_step(k):
+            return 1.0 / float(plan.preview.W_xi_ref_T[-1] @ selection)
+        return adjustment_gain(plan.preview, plan.first_affected_phase(k), selection)
+
+    # -- end of multi-step recovery and step timing --------------------------------------------
 
     def _gain(self, k: int) -> float:
         """A_adj of footstep k (eq. 32) as a scalar.
@@ -419,8 +564,11 @@ class Walker:
                 landed=step.side,
                 t0=t_touch,
                 spec=self.spec,
+                nominal_feet=self._nominal_feet,
             )
             self.nominal_plan = self.plan  # the horizon as generated, before any adjustment
+            self._nominal_durations = self.plan.preview.durations.copy()
+            self._timing_target = None
 
     @property
     def next_step_index(self) -> int:

@@ -554,3 +554,20 @@ def test_app_warns_when_listening_beyond_loopback() -> None:
     finally:
         proc.terminate()
         proc.wait(timeout=10)
+
+
+def test_recovery_dropdown_changes_the_strategy_and_keeps_the_walk(dash: Dashboard) -> None:
+    """Issue 11: the recovery strategy is a dropdown in the Control folder; a change keeps the
+    walk (a [control] change) and the walker uses it from the next tick."""
+    handle = dash.controls.handles[("control", "recovery")]
+    assert tuple(handle.options) == ("next_step", "multi_step", "multi_step_timing")
+    assert handle.value == dash.config.control.recovery == "next_step"
+    session = dash.loop.session
+    for _ in range(200):
+        session.step()
+    drain(dash)
+    t = session.t
+    assert dash.editor.on_field_change("control", "recovery", "multi_step_timing")
+    drain(dash)
+    assert dash.loop.session is session and session.t == t  # not restarted
+    assert session.walker.control.recovery == "multi_step_timing"

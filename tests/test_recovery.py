@@ -7,7 +7,7 @@ import pytest
 
 from dcmviz import recovery
 from dcmviz.config import Config
-from dcmviz.gait import plan_from_config
+from dcmviz.gait import Footstep, SwingTrajectory, plan_from_config, timing
 from dcmviz.recovery import Candidate
 from dcmviz.robots import get_spec
 from dcmviz.session import Session
@@ -97,3 +97,128 @@ def test_tick_shows_the_footstep_after_the_adjusted_one_when_it_takes_the_rest(s
     s.run(5.0)
     assert seen, "the footstep after the adjusted one never moved"
     assert max(step.position[1] for step in seen) > 0.085 + 0.05  # the left foot steps out
+
+
+# -- honest leverages, step timing (issue 11, second part) -------------------------------------
+
+
+def test_cop_capacity_is_what_a_held_cop_offset_removes() -> None:
+    """ε = (1 − e^{−τ/b}) δ: a CoP offset δ held τ seconds brings the DCM onto ξ_adj (numerical
+    integration of ε̇ = (ε − δ)/b, the DCM dynamics relative to a reference, eq. 2)."""
+    b, tau, delta = 0.3, 0.45, np.array([0.03, -0.05])
+    eps = (1.0 - np.exp(-tau / b)) * delta
+    n = 20000
+    h = tau / n
+    for _ in range(n):  # RK2
+        mid = eps + 0.5 * h * (eps - delta) / b
+        eps = eps + h * (mid - delta) / b
+    assert np.linalg.norm(eps) < 1e-6
+
+
+def test_capacity_makes_the_later_footsteps_take_what_the_cop_cannot() -> None:
+    """With the capacity, the QP's ε = ξ̃ − Σ a_j(t) Δv_j, a_j(t) from the dense dcm_weights
+    (eqs. 22, 33–35), lies in the capacity whenever the footsteps can make it; without it the
+    own-instant leverages leave far more to the CoP."""
+    config = Config()
+    plan = plan_from_config(config)
+    spec = get_spec("talos")
+    k = 3
+    t = plan.phase_start(2 * k + 2) + 0.35  # mid single support of footstep k
+    local = t - plan.t0
+    w = plan.preview.dcm_weights(local)
+    cands = [
+        Candidate(c.nominal, c.leverage, c.lead_time_s, now_leverage=float(w @ plan.selection(j)))
+        for j, c in enumerate(candidates_from_dense(plan, k, t), start=k)
+    ]
+    a = np.array([c.now_leverage for c in cands])
+    assert a[0] > 5 * a[1] > 0.0  # the later footstep moves ξ_adj now far less
+    capacity = recovery.Capacity(np.eye(2), np.array([-0.02, -0.02]), np.array([0.02, 0.02]))
+    error = np.array([0.05, 0.0, 0.0])  # forward: every footstep may move
+    sol = recovery.solve_full(
+        cands, plan.stance_for(k), error, spec, 0.4, config.dcm.b, capacity=capacity
+    )
+    eps = error[:2] - sum(c.now_leverage * dv[:2] for c, dv in zip(cands, sol.dv, strict=True))
+    assert np.all(eps >= capacity.lo - 1e-6) and np.all(eps <= capacity.hi + 1e-6)
+    assert np.linalg.norm(sol.slack) < 1e-6
+    loose = recovery.solve(cands, plan.stance_for(k), error, spec, 0.4, config.dcm.b)
+    eps_loose = error[:2] - sum(c.now_leverage * dv[:2] for c, dv in zip(cands, loose, strict=True))
+    assert eps_loose[0] > 0.02 + 1e-3  # the paper's persistence condition alone: not capturable
+
+
+def test_retimed_order_0_phase_follows_the_closed_form() -> None:
+    """ξ(T) = v + e^{T/b}(ξ_0 − v) over a re-timed single support (order 0: constant VRP)."""
+    config = Config().replace(dcm={"order": 0})
+    plan = plan_from_config(config)
+    phase = 8  # a single support
+    assert plan.phase_kind[phase] == "ss"
+    durations = plan.preview.durations.copy()
+    durations[phase] = 0.45
+    durations[phase + 1] = 0.5
+    p = timing.retimed(plan, durations)
+    t0 = float(p.preview.phase_start_times[phase])
+    v = p.preview.vrp(t0 + 0.1)
+    got = p.preview.dcm(t0 + 0.45 - 1e-9)
+    want = timing.dcm_after(p.preview.dcm(t0), v, 0.45, config.dcm.b)
+    np.testing.assert_allclose(got, want, atol=1e-7)
+    assert p.steps == plan.steps and np.array_equal(p.waypoints, plan.waypoints)
+
+
+def test_candidates_respect_the_limits() -> None:
+    plan = plan_from_config(Config())
+    phase = 8
+    t_phase = 0.5
+    local = float(plan.preview.phase_start_times[phase]) + t_phase
+    cands = timing.timing_candidates(plan, local)
+    assert np.array_equal(cands[0], plan.preview.durations)  # nominal first
+    for d in cands:
+        assert d[phase] >= t_phase + timing.MIN_REMAINING_S - 1e-9 or d[phase] == 0.7
+        assert d[phase + 1] >= timing.MIN_DS_S and d[phase + 2] >= timing.MIN_SS_S
+        np.testing.assert_array_equal(d[:phase], plan.preview.durations[:phase])
+        np.testing.assert_array_equal(d[phase + 3 :], plan.preview.durations[phase + 3 :])
+
+
+def test_a_shortened_swing_does_not_jump() -> None:
+    """Re-timing mid-swing keeps position and velocity (horizontal C², height C⁰ with its rate
+    scaled) and lands on the target at the new touchdown."""
+    lift = Footstep("right", np.array([0.0, -0.085, 0.0]), 0.0)
+    touch = Footstep("right", np.array([0.4, -0.085, 0.0]), 0.0)
+    swing = SwingTrajectory.between(1.0, 1.7, lift, touch)
+    t, dt = 1.3, 1e-4
+    short = swing.retime(t, 1.5)
+    p0, v0, a0, *_ = swing.sample(t)
+    p1, v1, a1, *_ = short.sample(t)
+    np.testing.assert_allclose(p1, p0, atol=1e-9)
+    np.testing.assert_allclose(v1[:2], v0[:2], atol=1e-9)
+    np.testing.assert_allclose(a1[:2], a0[:2], atol=1e-6)
+    assert abs(v1[2] - v0[2] * 0.7 / ((1.5 - t) / (1.7 - t) * 0.7)) < 1.0  # scaled, bounded
+    pt, vt, *_ = short.sample(1.5)
+    np.testing.assert_allclose(pt, touch.position, atol=1e-9)
+    np.testing.assert_allclose(vt, 0.0, atol=1e-9)
+    path = np.array([short.sample(s)[0] for s in np.arange(t, 1.5, dt)])
+    assert np.max(np.linalg.norm(np.diff(path, axis=0), axis=1)) < 3.0 * dt  # < 3 m/s
+
+
+def _survives(strategy: str, impulse: float, angle_deg: float) -> bool:
+    config = Config().replace(
+        sim={"backend": "lip"},
+        control={"recovery": strategy, "observer": False},
+    )
+    s = Session(config, backend="lip")
+    a = np.radians(angle_deg)
+    force = impulse / 0.2
+    start = plan_from_config(config).phase_start(8) + 0.35  # mid single support, step 4
+    s.push((force * np.cos(a), force * np.sin(a), 0.0), 0.2, start=start)
+    s.run(start + 3.0)
+    return not s.fell
+
+
+def test_step_timing_walks_nominal_undisturbed_and_catches_a_push_towards_the_stance_foot() -> None:
+    config = Config().replace(sim={"backend": "lip"}, control={"recovery": "multi_step_timing"})
+    s = Session(config, backend="lip")
+    s.run(s.plan.duration + 1.0)
+    assert not s.fell and s.metrics.max_dcm_error_m < 1e-3
+    np.testing.assert_array_equal(s.walker.plan.preview.durations, s.walker._nominal_durations)
+    # towards the stance foot (left, step 4 swings the right foot): the paper's single step
+    # cannot cross the stance leg; a short in-place step and a quick wide one can
+    assert not _survives("next_step", 34.0, 90.0)
+    assert _survives("multi_step_timing", 34.0, 90.0)

@@ -325,3 +325,16 @@ def test_dashboard_shows_a_presets_robot_file_in_its_dropdown(tmp_path):
     finally:
         dash.stop()
         server.stop()
+
+
+def test_controller_values_of_a_robot_file_reach_the_whole_body_qp(tmp_path):
+    from dcmviz.sim.wbc import Gains, WholeBodyController
+
+    text = ROBOT_FILE.replace('name = "g1_hands"', 'name = "g1_soft"') + (
+        "\n[controller]\nkp_foot = 400.0\nfriction = 0.6\n"
+    )
+    robot = load_robot(str(_write_robot(tmp_path, text, "g1_soft.toml")))
+    gains = WholeBodyController(robot).gains
+    assert (gains.kp_foot, gains.friction) == (400.0, 0.6)
+    assert gains.kd_foot == Gains().kd_foot  # the rest keep the defaults
+    assert WholeBodyController(load_robot("g1")).gains == Gains()  # built-ins set none

@@ -9,7 +9,15 @@ from pathlib import Path
 import pytest
 
 from dcmviz.config import load_preset
-from dcmviz.sweep import SweepSettings, envelope, find_boundary, main, push_window, write_envelope
+from dcmviz.sweep import (
+    SweepSettings,
+    envelope,
+    find_boundary,
+    main,
+    push_window,
+    table,
+    write_envelope,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 WALK = ROOT / "presets" / "walk_forward.toml"
@@ -91,6 +99,8 @@ def test_step_adjustment_recovers_larger_lateral_impulse(tmp_path: Path) -> None
         (["--sim", "ode"], "--sim"),
         (["--address", "127.0.0.1:6379", "--jobs", "2"], "--jobs"),
         (["--grid", "6"], "--coarse"),
+        (["--strategies", "next_step,magic"], "magic"),
+        (["--strategies", "multi_step", "--controllers", "tracking"], "--strategies"),
     ],
 )
 def test_bad_input_exits_2(capsys, args, needle) -> None:
@@ -102,3 +112,26 @@ def test_bad_input_exits_2(capsys, args, needle) -> None:
 def test_ramp_test_needs_a_ramped_push(capsys, tmp_path: Path) -> None:
     assert main([str(WALK), "--ramp-test", "--out", str(tmp_path)]) == 2
     assert "ramp" in capsys.readouterr().err
+
+
+def test_strategies_side_by_side(tmp_path: Path) -> None:
+    """--strategies: tracking and each recovery strategy (step adjustment on, observer off) in
+    one table and one polar plot; towards the stance foot (90°) step timing catches more."""
+    settings = SweepSettings(
+        backend="lip",
+        angles_deg=(90.0,),
+        controllers=("tracking", "next_step", "multi_step_timing"),
+        max_impulse_ns=60.0,
+        grid=3,
+        iterations=3,
+        jobs=1,
+    )
+    result = envelope(load_preset(WALK), settings)
+    j = {r["controller"]: r["max_impulse_ns"] for r in result["rows"]}
+    res = result["resolution_ns"]
+    assert j["multi_step_timing"] >= j["next_step"] + res
+    assert j["next_step"] >= j["tracking"] - res
+    text = table(result)
+    assert "multi_step_timing/trk" in text and "next_step/trk" in text
+    paths = write_envelope(result, tmp_path)
+    assert paths[2].stat().st_size > 10_000

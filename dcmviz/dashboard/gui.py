@@ -15,7 +15,7 @@ from typing import Any
 
 import viser
 
-from dcmviz.config import Config, field_info
+from dcmviz.config import Config, ControlSection, field_info
 from dcmviz.robots import BUILTIN_ROBOTS, RobotSpec, get_spec
 
 
@@ -85,6 +85,7 @@ def slider_range(spec: SliderSpec, robot: RobotSpec | None = None) -> tuple[floa
     return round(lo, 6), round(hi, 6)
 
 
+RECOVERY_STRATEGIES: tuple[str, ...] = ControlSection.model_fields["recovery"].annotation.__args__
 ALL_SLIDERS = FOOTSTEP_SLIDERS + DCM_SLIDERS + CONTROL_SLIDERS
 
 
@@ -120,6 +121,7 @@ class Controls:
             self._slider(CONTROL_SLIDERS[0], config)
             self._checkbox("control", "step_adjustment", "Step adjustment (eqs. 27–35)", config)
             self._slider(CONTROL_SLIDERS[1], config)
+            self._dropdown("control", "recovery", RECOVERY_STRATEGIES, config)  # issue 11
             self._checkbox("control", "observer", "Disturbance observer (eqs. 42–49)", config)
             self._slider(CONTROL_SLIDERS[2], config)
 

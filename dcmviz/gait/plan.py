@@ -241,6 +241,7 @@ def build_plan(
     t0: float = 0.0,
     start_com: np.ndarray | None = None,
     spec: RobotSpec | None = None,
+    nominal_feet: dict[str, Footstep] | None = None,
 ) -> GaitPlan:
     """Assemble waypoints, durations and phases for ``steps`` and build the preview.
 
@@ -257,11 +258,14 @@ def build_plan(
 
     ``spec``: the robot's legs lower the VRP waypoints of a footstep whose stride they cannot
     span at Δz_vrp (:mod:`dcmviz.gait.height`); without it every waypoint is Δz_vrp above its foot.
+    The strides are measured from ``nominal_feet`` (default ``start_feet``): a replanning after an
+    adjusted footstep keeps the heights the previous plan had, so the reference does not jump.
     """
     if len(steps) == 0:
         raise ValueError("steps: a plan needs at least one footstep")
     dz = np.array([0.0, 0.0, vrp_height(b)])
-    step_dz = [np.array([0.0, 0.0, h]) for h in step_heights(spec, dz[2], start_feet, steps)]
+    height_feet = dict(nominal_feet if nominal_feet is not None else start_feet)
+    step_dz = [np.array([0.0, 0.0, h]) for h in step_heights(spec, dz[2], height_feet, steps)]
     feet = dict(start_feet)
     wps: list[np.ndarray] = []
     kinds: list[str] = []
@@ -289,7 +293,9 @@ def build_plan(
             raise ValueError("landed: a transfer plan needs the side that just touched down")
         stance = feet[landed]
         other = feet[OTHER[landed]]
-        (landed_dz,) = step_heights(spec, dz[2], {OTHER[landed]: other}, (stance,))
+        (landed_dz,) = step_heights(
+            spec, dz[2], {OTHER[landed]: height_feet[OTHER[landed]]}, (height_feet[landed],)
+        )
         landed_dz = np.array([0.0, 0.0, landed_dz])
         wps += [other.position + landed_dz, stance.position + landed_dz]
         add_phase("ds", -1, timing.t_ds)

@@ -185,6 +185,29 @@ class SwingTrajectory:
             self.top,
         )
 
+    def retime(self, t: float, t_touch: float) -> SwingTrajectory:
+        """The same swing with touchdown at ``t_touch`` (step timing, ``dcmviz.gait.timing``).
+
+        The height keeps its progress s at t (the lift-off time is moved so that
+        (t − t_lift)/(t_touch − t_lift) is unchanged): z is continuous and its rate changes by
+        the ratio of the durations.  The horizontal quintic is re-solved from its position,
+        velocity and acceleration at t, so it stays C².
+        """
+        if abs(t_touch - self.t_touch) < 1e-9 or t >= self.t_touch or t_touch <= t:
+            return self
+        s = min(max((t - self.t_lift) / (self.t_touch - self.t_lift), 0.0), 1.0)
+        if s >= 1.0:
+            return self
+        t_lift = (t - s * t_touch) / (1.0 - s)
+        t = max(t, self.t_seg)
+        p, v, a = self._horizontal(t)
+        p1 = np.array([self.target[0], self.target[1], self.yaw_target])
+        c = _quintic_coefficients(p, v, a, p1, t_touch - t)
+        return SwingTrajectory(
+            t_lift, t_touch, self.start, self.target, self.yaw_start, self.yaw_target,
+            self.height, t, c, self.top,
+        )  # fmt: skip
+
     def _horizontal(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         tau = min(max(t, self.t_seg), self.t_touch) - self.t_seg
         c0, c1, c2, c3, c4, c5 = self.coeffs  # Horner on (3,) rows

@@ -12,6 +12,7 @@ against the URDF when the model is built (:func:`dcmviz.robots.model.build_model
 
 from __future__ import annotations
 
+import importlib.metadata
 import math
 import os
 import site
@@ -36,8 +37,15 @@ def example_robot_data_dir() -> str:
     """``example-robot-data``'s ``robots`` directory (its package data under the cmeel prefix).
 
     The wheel ships no Python module: its files are package data under
-    ``<site-packages>/cmeel.prefix/share/example-robot-data/robots``; this looks for that
-    directory in every site-packages of the running interpreter."""
+    ``cmeel.prefix/share/example-robot-data/robots``, found through the installed distribution's
+    file list (``importlib.metadata``), else in every site-packages of the interpreter."""
+    relative = os.path.join("cmeel.prefix", "share", "example-robot-data", "robots")
+    try:
+        located = str(importlib.metadata.distribution("example-robot-data").locate_file(relative))
+        if os.path.isdir(located):
+            return located
+    except importlib.metadata.PackageNotFoundError:
+        pass
     candidates = [sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]]
     try:
         candidates += site.getsitepackages()
@@ -45,7 +53,7 @@ def example_robot_data_dir() -> str:
         pass
     candidates.append(site.getusersitepackages())
     for base in candidates:
-        path = os.path.join(base, "cmeel.prefix", "share", "example-robot-data", "robots")
+        path = os.path.join(base, relative)
         if os.path.isdir(path):
             return path
     raise FileNotFoundError(

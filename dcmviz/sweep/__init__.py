@@ -9,7 +9,10 @@ controllers
 * ``step_adjustment``: step adjustment and the adapted DCM reference, eqs. (27)–(35), (40)/(41);
 * ``step_adjustment+observer``: the same plus the disturbance observer, eqs. (42)–(49);
 
-(or ``preset``: the preset's own flags) the largest push impulse J = |F| T_push (N·s) that the
+(or ``preset``: the preset's own flags; or, with ``--strategies next_step,multi_step,
+multi_step_timing``, tracking and each recovery strategy of ``control.recovery`` with step
+adjustment on and the observer off, side by side in one table and one polar plot) the largest
+push impulse J = |F| T_push (N·s) that the
 walk survives is found: a push of the given duration starts at a fraction ``--phase`` of the
 single support of the ``--step``-th step (a mid-walk step), and the robot keeps walking until
 ``--settle-steps`` step periods after the push (or to the end of the plan with ``--full``).

@@ -16,6 +16,7 @@ from dcmviz.config import ConfigError, load_preset
 from dcmviz.sweep.experiments import (
     CONTROLLERS,
     PRESET_CONTROLLER,
+    STRATEGIES,
     Execution,
     SweepSettings,
     envelope,
@@ -68,6 +69,13 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"comma-separated subset of {', '.join([*CONTROLLERS, PRESET_CONTROLLER])} "
         f"(default: the three; with --grid: {PRESET_CONTROLLER}, the preset's own flags)",
     )
+    p.add_argument(
+        "--strategies",
+        default=None,
+        help=f"compare recovery strategies side by side: comma-separated subset of "
+        f"{', '.join(STRATEGIES)} (each with step adjustment on, observer off), after tracking; "
+        "one table and one polar plot with a curve per strategy (replaces --controllers)",
+    )
     p.add_argument("--out", default="sweep_out", help="output directory")
     p.add_argument(
         "--resume",
@@ -116,11 +124,21 @@ def settings_from_args(args: argparse.Namespace, controllers: tuple[str, ...]) -
 def parse_controllers(text: str) -> tuple[str, ...]:
     names = tuple(c.strip() for c in text.split(",") if c.strip())
     for c in names:
-        if c not in CONTROLLERS and c != PRESET_CONTROLLER:
-            allowed = ", ".join([*CONTROLLERS, PRESET_CONTROLLER])
+        if c not in CONTROLLERS and c != PRESET_CONTROLLER and c not in STRATEGIES:
+            allowed = ", ".join([*CONTROLLERS, PRESET_CONTROLLER, *STRATEGIES])
             raise BadInput(f"--controllers {c!r}: allowed {allowed}")
     if not names:
         raise BadInput("--controllers: name at least one")
+    return names
+
+
+def parse_strategies(text: str) -> tuple[str, ...]:
+    names = tuple(c.strip() for c in text.split(",") if c.strip())
+    for c in names:
+        if c not in STRATEGIES:
+            raise BadInput(f"--strategies {c!r}: allowed {', '.join(STRATEGIES)}")
+    if not names:
+        raise BadInput("--strategies: name at least one")
     return names
 
 
@@ -137,7 +155,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         except SystemExit as exc:  # --help
             return int(exc.code or 0)
         default = PRESET_CONTROLLER if args.grid else ",".join(CONTROLLERS)
-        controllers = parse_controllers(args.controllers or default)
+        if args.strategies is not None:
+            if args.controllers is not None:
+                raise BadInput("--strategies replaces --controllers: give one of them")
+            controllers = ("tracking", *parse_strategies(args.strategies))
+        else:
+            controllers = parse_controllers(args.controllers or default)
         config = load_preset(args.preset)
         settings = settings_from_args(args, controllers)
         axes = [parse_axis(a, config) for a in args.grid] if args.grid else []

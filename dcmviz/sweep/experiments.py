@@ -16,7 +16,7 @@ import numpy as np
 
 from dcmviz import GRAVITY
 from dcmviz.cli import BadInput
-from dcmviz.config import Config
+from dcmviz.config import Config, ControlSection
 from dcmviz.gait import plan_from_config
 from dcmviz.robots import get_spec
 from dcmviz.sweep.report import ratios
@@ -38,13 +38,25 @@ CONTROLLERS: dict[str, dict[str, bool]] = {
     "step_adjustment+observer": {"step_adjustment": True, "observer": True},  # + eqs. (42)-(49)
 }
 PRESET_CONTROLLER = "preset"  # the preset's own [control] flags, unchanged
+# recovery strategies (control.recovery) as controllers: step adjustment on, observer off
+STRATEGIES: tuple[str, ...] = ControlSection.model_fields["recovery"].annotation.__args__
+
+
+def controller_flags(name: str) -> dict:
+    """The [control] keys controller ``name`` sets: one of CONTROLLERS, or a recovery strategy
+    (``--strategies``) with step adjustment on and the observer off."""
+    if name in CONTROLLERS:
+        return CONTROLLERS[name]
+    if name in STRATEGIES:
+        return {"step_adjustment": True, "observer": False, "recovery": name}
+    raise ValueError(f"controller {name!r}: allowed {', '.join([*CONTROLLERS, *STRATEGIES])}")
 
 
 def with_controller(config: Config, name: str) -> Config:
-    """``config`` with the step adjustment / observer flags of controller ``name``."""
+    """``config`` with the step adjustment / observer (/ recovery) keys of controller ``name``."""
     if name == PRESET_CONTROLLER:
         return config
-    return config.replace(control={**config.control.model_dump(), **CONTROLLERS[name]})
+    return config.replace(control={**config.control.model_dump(), **controller_flags(name)})
 
 
 @dataclass

@@ -130,7 +130,10 @@ def plot_polar(result: dict[str, Any], path: Path) -> None:
 
     fig = plt.figure(figsize=(6.4, 6.4))
     ax = fig.add_subplot(projection="polar")
-    styles = {"tracking": "o-", "step_adjustment": "s-", "step_adjustment+observer": "^--"}
+    styles = {
+        "tracking": "o-", "step_adjustment": "s-", "step_adjustment+observer": "^--",
+        "next_step": "s-", "multi_step": "d-", "multi_step_timing": "^-",
+    }  # fmt: skip
     for name in result["settings"]["controllers"]:
         rows = sorted(
             (r for r in result["rows"] if r["controller"] == name),
