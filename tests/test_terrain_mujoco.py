@@ -84,6 +84,7 @@ def test_the_scene_has_the_boxes_and_the_robot_stands_on_the_landing() -> None:
     assert not session.fell
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("rise", [RISE, -RISE])
 def test_talos_walks_a_short_staircase(rise: float) -> None:
     """Two 0.15 m steps up (down) onto the landing (floor): no fall, every sole lands flat
@@ -117,6 +118,7 @@ def test_talos_walks_a_short_staircase(rise: float) -> None:
         assert session.last_state.feet[side][2] == pytest.approx(tread_height(0.9, rise), abs=5e-3)
 
 
+@pytest.mark.slow
 def test_g1_climbs_a_short_staircase_of_8_cm() -> None:
     """The G1 (presets/stairs_g1.toml, shortened to two treads): its soles land on treads at
     0.08 and 0.16 m, horizontal DCM error below 3 cm, no fall."""
@@ -135,6 +137,7 @@ def test_g1_climbs_a_short_staircase_of_8_cm() -> None:
         assert session.last_state.feet[side][2] == pytest.approx(0.16, abs=5e-3)
 
 
+@pytest.mark.slow
 def test_a_lateral_push_of_20_newton_seconds_on_the_stairs_is_survived() -> None:
     """presets/stairs_up.toml, 100 N for 0.2 s to the left during the third step (on the
     0.15 m stairs): the observer sees the push, the swinging foot lands further left, still
