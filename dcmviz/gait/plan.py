@@ -26,7 +26,8 @@ from dcmviz.config import Config, GaitSection
 from dcmviz.dcm import Preview, continuity_waypoints, vrp_height
 from dcmviz.gait.footsteps import on_terrain, plan_footsteps
 from dcmviz.gait.height import step_heights
-from dcmviz.robots.spec import RobotSpec, get_spec
+from dcmviz.robots.registry import get_spec
+from dcmviz.robots.spec import RobotSpec
 from dcmviz.state import OTHER, Footstep
 from dcmviz.terrain import terrain_of
 

@@ -7,7 +7,8 @@ prints what a robot file derives.
 
 from dcmviz.robots.file import BUILTIN_ROBOTS, RobotFileError
 from dcmviz.robots.reach import clamp_to_reach, reach_problem
-from dcmviz.robots.spec import ROBOT_NAMES, SPECS, RobotSpec, get_spec
+from dcmviz.robots.registry import ROBOT_NAMES, SPECS, get_spec
+from dcmviz.robots.spec import RobotSpec
 
 __all__ = [
     "BUILTIN_ROBOTS",

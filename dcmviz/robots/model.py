@@ -28,6 +28,7 @@ import numpy as np
 
 from dcmviz import GRAVITY
 from dcmviz.robots.file import RobotFile, RobotFileError, parse_robot_file, resolve_robot_path
+from dcmviz.robots.spec import RobotSpec
 
 SIDES = ("left", "right")
 MOVABLE = ("revolute", "continuous", "prismatic")
@@ -506,9 +507,7 @@ def _derive(model, q_nominal, sole_frames, legs, joint_names, limits, rf) -> Der
     )
 
 
-def _spec(rf: RobotFile, d: Derived):
-    from dcmviz.robots.spec import RobotSpec
-
+def _spec(rf: RobotFile, d: Derived) -> RobotSpec:
     w = rf.walking
 
     def pick(key: str) -> float:

@@ -8,12 +8,10 @@ Pinocchio (:mod:`dcmviz.robots.model`).  Importing this module is cheap; the fir
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 
 from dcmviz import GRAVITY
 from dcmviz.dcm.control import vrp_height
-from dcmviz.robots.file import BUILTIN_ROBOTS, RobotFileError
 
 
 @dataclass(frozen=True)
@@ -70,35 +68,3 @@ class RobotSpec:
             f"asks for a CoM height of {height:.3f} m; {self.name} walks at "
             f"{lo:.3f}–{hi:.3f} m, i.e. b from {b_lo:.3f} to {b_hi:.3f} s"
         )
-
-
-class _BuiltinSpecs(Mapping[str, RobotSpec]):
-    """The built-in robots' specs by name, each built from its robot file when first read."""
-
-    def __getitem__(self, name: str) -> RobotSpec:
-        if name not in BUILTIN_ROBOTS:
-            raise KeyError(name)
-        return get_spec(name)
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(BUILTIN_ROBOTS)
-
-    def __len__(self) -> int:
-        return len(BUILTIN_ROBOTS)
-
-
-SPECS: Mapping[str, RobotSpec] = _BuiltinSpecs()
-ROBOT_NAMES = BUILTIN_ROBOTS
-
-
-def get_spec(model: str) -> RobotSpec:
-    """The spec of ``robot.model``: a built-in robot's name or the path of a robot file
-    (``docs/robots.md``), built and checked once per process and file version.  ValueError
-    (:class:`~dcmviz.robots.file.RobotFileError`) naming ``robot.model``, the file's key and what
-    was expected otherwise."""
-    from dcmviz.robots.model import build_model
-
-    try:
-        return build_model(model).spec
-    except RobotFileError as err:
-        raise RobotFileError(f"robot.model = {model!r}: {err}") from None
