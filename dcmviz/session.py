@@ -31,6 +31,7 @@ Subscriber = Callable[[Tick], None]
 
 REALISED_IN_TICK = 64  # latest landed footsteps a Tick carries (its cost must not grow with time)
 HISTORY = 4000  # samples kept for live plots (ring buffer)
+PUSHES_KEPT = 256  # pushes remembered (an endless walk pushed every few seconds keeps its latest)
 HISTORY_KEYS = ("t", "xi", "xi_ref", "xi_adj", "v_cmd", "v_ref", "com", "f_ext", "f_hat")
 
 
@@ -135,7 +136,7 @@ class Session:
         self.walker.reset(state)
         self.last_state: MeasuredState = state
         self.last_command: WalkerCommand | None = None
-        self.pushes: list[Push] = list(self.config.pushes)  # every push of this walk
+        self.pushes: list[Push] = list(self.config.pushes)  # this walk's (the last PUSHES_KEPT)
         self._pending: list[Push] = list(self.pushes)  # those not over yet (cost per tick)
         self.metrics = Metrics()
         self._tick: Tick | None = None
@@ -169,6 +170,8 @@ class Session:
             body=body,
         )
         self.pushes.append(push)
+        if len(self.pushes) > PUSHES_KEPT:
+            del self.pushes[:-PUSHES_KEPT]
         self._pending.append(push)
         return push
 
@@ -331,5 +334,6 @@ class Session:
         return self.walker.step_adjustments
 
     def realised_steps(self) -> list:
-        """Every footstep that has landed since the reset (:class:`~dcmviz.walker.StepRecord`)."""
+        """The footsteps landed since the reset (:class:`~dcmviz.walker.StepRecord`; a
+        continuous walk keeps its last ``walker.RECORDS_KEPT``)."""
         return list(self.walker.records)

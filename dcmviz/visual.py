@@ -14,6 +14,7 @@ No viser and no rerun here: each shell draws the same meshes with its own public
 
 from __future__ import annotations
 
+import ctypes
 import os
 import threading
 from collections.abc import Mapping
@@ -77,6 +78,34 @@ def _ancestors(model: pin.Model, frame_id: int) -> tuple[str, ...]:
     return tuple(names)
 
 
+def _read_visuals(
+    model: pin.Model, path: str, share: str
+) -> tuple[tuple[VisualMesh, ...], np.ndarray, np.ndarray]:
+    """The URDF's visual meshes, the joint each hangs on and its (4, 4) placement in that
+    joint's frame.  Pinocchio's geometry model (and every mesh it loaded) is dropped on return."""
+    geometry = pin.buildGeomFromUrdf(model, path, pin.GeometryType.VISUAL, package_dirs=[share])
+    meshes, joints, placements = [], [], []
+    for obj in geometry.geometryObjects:
+        mesh = _mesh_of(obj)
+        if mesh is None or len(mesh.faces) == 0:
+            continue
+        rgba = np.clip(np.asarray(obj.meshColor, float), 0.0, 1.0)
+        meshes.append(
+            VisualMesh(
+                name=obj.name,
+                link=model.frames[obj.parentFrame].name,
+                vertices=np.asarray(mesh.vertices, np.float32),
+                faces=np.asarray(mesh.faces, np.uint32),
+                normals=np.asarray(mesh.vertex_normals, np.float32),
+                color=tuple(int(round(255 * c)) for c in rgba),
+                ancestors=_ancestors(model, obj.parentFrame),
+            )
+        )
+        joints.append(int(obj.parentJoint))
+        placements.append(np.array(obj.placement.homogeneous, float))
+    return tuple(meshes), np.array(joints, int), np.array(placements, float).reshape(-1, 4, 4)
+
+
 def urdf_path(model_name: str) -> str:
     """The robot's full URDF (the one the simulation edits), absolute."""
     return os.path.join(robots_dir(), robot_source(model_name).urdf)
@@ -90,32 +119,15 @@ class RobotVisual:
         path = urdf_path(model_name)
         share = os.path.dirname(os.path.dirname(robots_dir()))  # package://example-robot-data/…
         self.model = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())
-        geometry = pin.buildGeomFromUrdf(
-            self.model, path, pin.GeometryType.VISUAL, package_dirs=[share]
-        )
-        meshes, keep = [], []
-        for i, obj in enumerate(geometry.geometryObjects):
-            mesh = _mesh_of(obj)
-            if mesh is None or len(mesh.faces) == 0:
-                continue
-            rgba = np.clip(np.asarray(obj.meshColor, float), 0.0, 1.0)
-            meshes.append(
-                VisualMesh(
-                    name=obj.name,
-                    link=self.model.frames[obj.parentFrame].name,
-                    vertices=np.asarray(mesh.vertices, np.float32),
-                    faces=np.asarray(mesh.faces, np.uint32),
-                    normals=np.asarray(mesh.vertex_normals, np.float32),
-                    color=tuple(int(round(255 * c)) for c in rgba),
-                    ancestors=_ancestors(self.model, obj.parentFrame),
-                )
-            )
-            keep.append(i)
-        self.meshes: tuple[VisualMesh, ...] = tuple(meshes)
-        self._geometry = geometry
-        self._keep = np.array(keep, dtype=int)
+        meshes, joints, placements = _read_visuals(self.model, path, share)
+        self.meshes: tuple[VisualMesh, ...] = meshes
+        # what posing needs of each mesh: its joint and its placement in that joint's frame
+        # (oMg = oMi[joint] · placement, as pin.updateGeometryPlacements).  The geometry model is
+        # not kept: its BVH copy of every mesh (coal, native memory) holds ~50 MB for Talos and
+        # ~200 MB for G1, and a visual lives as long as the process.
+        self._joints, self._placements = joints, placements
+        _release_freed_memory()
         self._data = self.model.createData()
-        self._geometry_data = pin.GeometryData(geometry)
         self._lock = threading.Lock()  # the dashboard and a recorder may pose from two threads
         nominal = robot_source(model_name).nominal
         self.joint_names: tuple[str, ...] = tuple(
@@ -157,13 +169,20 @@ class RobotVisual:
     def _poses(self, q: np.ndarray) -> MeshPoses:
         with self._lock:
             pin.forwardKinematics(self.model, self._data, q)
-            pin.updateGeometryPlacements(
-                self.model, self._data, self._geometry, self._geometry_data
-            )
-            placements = self._geometry_data.oMg
-            T = np.array([placements[int(i)].homogeneous for i in self._keep])
+            joints = self._data.oMi
+            T = np.array([joints[int(j)].homogeneous for j in self._joints]).reshape(-1, 4, 4)
+        T = T @ self._placements  # oMg = oMi[joint] · placement
         xyzw = Rotation.from_matrix(T[:, :3, :3]).as_quat()
         return MeshPoses(position=T[:, :3, 3].copy(), wxyz=np.roll(xyzw, 1, axis=1))
+
+
+def _release_freed_memory() -> None:
+    """Give the heap freed after loading the meshes back to the system (glibc's malloc_trim;
+    elsewhere nothing): otherwise the load's peak stays in the process's RSS."""
+    try:
+        ctypes.CDLL(None).malloc_trim(0)
+    except (AttributeError, OSError):
+        pass
 
 
 _VISUALS: dict[str, RobotVisual] = {}

@@ -63,6 +63,7 @@ TIMING_COST_WEIGHT = 1e-3  # ... and Σ (T − T_nominal)² (s²)
 TIMING_HYSTERESIS = 0.8  # a new target timing must score below this fraction of the kept one
 HORIZON_STEPS = 4  # continuous mode: at least this many footsteps previewed ahead
 HORIZON_TIME_CONSTANTS = 15.0  # ... and at least 15 b of walking before the terminal constraint
+RECORDS_KEPT = 256  # continuous mode: landed footsteps kept (a plan keeps all of its own)
 
 
 def horizon_count(gait, b: float) -> int:
@@ -158,7 +159,8 @@ class Walker:
         self.swing_step: int | None = None
         self.adjusted_target: tuple[int, np.ndarray] | None = None  # (step, position) pending
         self.recovery_target: tuple[int, np.ndarray] | None = None  # the footstep after it
-        self.records: tuple[StepRecord, ...] = ()  # grows at touchdowns; shared by every Tick
+        # grows at touchdowns (continuous mode: the last RECORDS_KEPT); shared by every Tick
+        self.records: tuple[StepRecord, ...] = ()
         self.steps_completed = 0
         self._last_contact_force = self.mass * GRAVITY * E_Z
         self.observer.reset(state.com_velocity)
@@ -542,7 +544,13 @@ class Walker:
         self.plan_version += 1
         t_touch = plan.swing_window(k)[1]
         self.placed[step.side] = self.plan.steps[k]
-        self.records += (StepRecord(t_touch, self.steps_completed, step.side, landed, nominal),)
+        records = (
+            *self.records,
+            StepRecord(t_touch, self.steps_completed, step.side, landed, nominal),
+        )
+        if self.config.gait.mode == "continuous":  # an endless walk: its latest footsteps only
+            records = records[-RECORDS_KEPT:]
+        self.records = records
         self.steps_completed += 1
         self.swing = None
         self.swing_step = None

@@ -1,0 +1,110 @@
+"""Memory that must not grow with use (issue 14, "an hour of use"): measured by counting live
+objects (gc, weakref), never by time or RSS.
+
+* A robot's visual model keeps its meshes, not Pinocchio's geometry model: that one holds a
+  BVH copy of every mesh in native memory (coal), ~50 MB for Talos and ~200 MB for G1, and a
+  visual is cached for the life of the process.  The poses computed without it must be the ones
+  ``pin.updateGeometryPlacements`` gives.
+* An endless (continuous-mode) walk pushed every few seconds keeps its latest landed footsteps
+  and pushes only.
+* Switching robots back and forth keeps one backend alive (each robot's models are built once
+  per process: bounded).
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import weakref
+
+import numpy as np
+import pinocchio as pin
+
+import dcmviz.session as session_module
+import dcmviz.walker as walker_module
+from dcmviz.backend import RobotPose
+from dcmviz.config import Config
+from dcmviz.session import Session
+from dcmviz.visual import RobotVisual, urdf_path
+from dcmviz.walker import StepRecord
+
+
+def test_robot_visual_frees_pinocchio_geometry_and_poses_like_it(monkeypatch) -> None:
+    built: list[weakref.ref] = []
+    build = pin.buildGeomFromUrdf
+
+    def tracked(*args, **kwargs):
+        geometry = build(*args, **kwargs)
+        built.append(weakref.ref(geometry))
+        return geometry
+
+    monkeypatch.setattr(pin, "buildGeomFromUrdf", tracked)
+    visual = RobotVisual("talos")
+    gc.collect()
+    assert len(built) == 1 and built[0]() is None  # the geometry model (and its BVHs) is gone
+    monkeypatch.undo()
+
+    # independent: Pinocchio's own geometry placements at a random posture and base
+    from dcmviz.sim.robots import robots_dir
+
+    share = os.path.dirname(os.path.dirname(robots_dir()))
+    geometry = pin.buildGeomFromUrdf(
+        visual.model, urdf_path("talos"), pin.GeometryType.VISUAL, package_dirs=[share]
+    )
+    geometry_data, data = pin.GeometryData(geometry), visual.model.createData()
+    rng = np.random.default_rng(14)
+    joints = {name: float(rng.uniform(-0.6, 0.6)) for name in visual.joint_names}
+    wxyz = np.array([0.9, 0.1, -0.2, 0.3]) / np.linalg.norm([0.9, 0.1, -0.2, 0.3])
+    pose = RobotPose(np.array([0.3, -0.2, 0.9]), wxyz, joints)
+    poses = visual.in_world(pose)
+    w, x, y, z = wxyz
+    q = pin.neutral(visual.model)
+    q[:7] = [0.3, -0.2, 0.9, x, y, z, w]
+    for j in range(2, visual.model.njoints):
+        name, joint = visual.model.names[j], visual.model.joints[j]
+        if name in joints and joint.nq == 1:
+            q[joint.idx_q] = joints[name]
+        elif name in joints and joint.nq == 2:
+            q[joint.idx_q : joint.idx_q + 2] = (np.cos(joints[name]), np.sin(joints[name]))
+    pin.forwardKinematics(visual.model, data, q)
+    pin.updateGeometryPlacements(visual.model, data, geometry, geometry_data)
+    ids = [geometry.getGeometryId(mesh.name) for mesh in visual.meshes]
+    expected = np.array([geometry_data.oMg[i].translation for i in ids])
+    np.testing.assert_allclose(poses.position, expected, atol=1e-12)
+    for i, k in enumerate(ids):
+        w2, x2, y2, z2 = poses.wxyz[i]
+        rotation = pin.Quaternion(w2, x2, y2, z2).toRotationMatrix()
+        np.testing.assert_allclose(rotation, geometry_data.oMg[k].rotation, atol=1e-12)
+
+
+def _live(kind: type) -> int:
+    gc.collect()
+    return sum(type(o) is kind for o in gc.get_objects())
+
+
+def test_endless_walk_keeps_its_latest_footsteps_and_pushes(monkeypatch) -> None:
+    monkeypatch.setattr(walker_module, "RECORDS_KEPT", 6)
+    monkeypatch.setattr(session_module, "PUSHES_KEPT", 4)
+    config = Config().replace(sim={"backend": "lip"}, gait={"mode": "continuous"})
+    s = Session(config, backend="lip")
+    before = _live(StepRecord)
+    pushes = []
+    sign = 1.0
+    while s.steps_completed < 20:
+        pushes.append(s.push((0.0, 20.0 * sign, 0.0), duration=0.1))
+        sign = -sign
+        s.run(0.5)
+    assert not s.fell
+    records = s.walker.records
+    assert len(records) == 6  # the latest six of 20 and more
+    assert [r.step for r in records] == list(range(s.steps_completed - 6, s.steps_completed))
+    assert _live(StepRecord) - before <= 6
+    assert len(pushes) > 4 and s.pushes == pushes[-4:]
+    assert s.tick().realised_steps == records[-session_module.REALISED_IN_TICK :]
+
+
+def test_a_plan_keeps_every_footstep(monkeypatch) -> None:
+    monkeypatch.setattr(walker_module, "RECORDS_KEPT", 2)
+    s = Session(Config().replace(sim={"backend": "lip"}, gait={"mode": "plan"}), backend="lip")
+    s.run(s.plan.t_end + 0.5)
+    assert len(s.realised_steps()) == s.steps_completed == len(s.plan.steps)
