@@ -38,7 +38,7 @@ def robots_dir() -> str:
 class RobotSource:
     """Where a robot comes from, as read from its robot file (for the visual model)."""
 
-    urdf: str  # absolute path of the full URDF
+    urdf: str  # absolute path of the full URDF (or MJCF: see RobotModel.is_mjcf)
     legs: tuple[str, ...]  # actuated joints, left leg then right leg (hip to ankle), then kept
     nominal: dict[str, float]  # nominal angle of every joint the posture sets (locked or not), rad
     sole_parent: dict[str, str | None]  # side -> link a sole link was added under (None: URDF's)
@@ -51,7 +51,7 @@ def robot_source(name: str) -> RobotSource:
     """Where robot ``name`` (built-in name or robot file path) comes from."""
     rm = build_model(name)
     return RobotSource(
-        urdf=rm.file.urdf_path,
+        urdf=rm.file.model_path,
         legs=(*rm.legs["left"], *rm.legs["right"], *rm.file.joints.keep),
         nominal=dict(rm.nominal),
         sole_parent=dict(rm.sole_parent),
@@ -98,13 +98,17 @@ class Robot:
         self.damping = rm.damping
 
         # --- MuJoCo --------------------------------------------------------------------------
-        spec = mujoco.MjSpec.from_string(
-            urdf.replace(
-                "</robot>",
-                '<mujoco><compiler discardvisual="true" balanceinertia="true" '
-                'strippath="false" fusestatic="false"/></mujoco></robot>',
+        if rm.is_mjcf:  # the edited MJCF: bodies, inertias, leg joints; no geometry
+            spec = mujoco.MjSpec.from_string(urdf)
+            spec.compiler.balanceinertia = True
+        else:
+            spec = mujoco.MjSpec.from_string(
+                urdf.replace(
+                    "</robot>",
+                    '<mujoco><compiler discardvisual="true" balanceinertia="true" '
+                    'strippath="false" fusestatic="false"/></mujoco></robot>',
+                )
             )
-        )
         spec.option.timestep = 0.001
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
