@@ -133,6 +133,32 @@ def test_an_mjcf_robot_matches_its_urdf_and_walks(tmp_path):
     assert walker.steps_completed == 6
 
 
+def test_an_mjcf_robots_visual_meshes_sit_where_mujoco_puts_its_geoms(tmp_path):
+    """The dashboard's and recorder's meshes of an MJCF robot: its geoms, posed like MuJoCo's
+    own model of the file (the original MJCF, locked joints at their angles)."""
+    from dcmviz.backend import RobotPose
+    from dcmviz.visual import RobotVisual
+
+    path = _g1_mjcf(tmp_path)
+    rm = build_model(str(path))
+    q = rm.q_nominal
+    joints = dict(rm.locked) | dict(zip(rm.joint_names, q[7:], strict=True))
+    wxyz = np.r_[q[6], q[3:6]]
+    visual = RobotVisual(str(path))
+    poses = visual.in_world(RobotPose(base_position=q[:3], base_wxyz=wxyz, joints=joints))
+    model = mujoco.MjModel.from_xml_path(str(tmp_path / "g1.xml"))
+    data = mujoco.MjData(model)
+    data.qpos[:7] = np.r_[q[:3], wxyz]
+    for name, angle in joints.items():
+        data.qpos[model.jnt_qposadr[model.joint(name).id]] = angle
+    mujoco.mj_forward(model, data)
+    assert len(visual.meshes) == model.ngeom > 0
+    # every mesh at one of MuJoCo's geoms (µm: MuJoCo's 6-digit XML)
+    gap = np.linalg.norm(poses.position[:, None, :] - data.geom_xpos[None], axis=2)
+    assert gap.min(axis=1).max() < 1e-5
+    assert gap.min(axis=0).max() < 1e-5
+
+
 def _mjcf_robot(tmp_path: Path, xml: str) -> str:
     (tmp_path / "r.xml").write_text(xml, encoding="utf-8")
     path = tmp_path / "r.toml"

@@ -22,6 +22,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
+from dcmviz import GRAVITY
 from dcmviz.robots import RobotSpec
 from dcmviz.robots.file import example_robot_data_dir, resolve_robot_path
 from dcmviz.robots.model import SIDES, RobotModel, build_model, solve_posture
@@ -101,6 +102,7 @@ class Robot:
         if rm.is_mjcf:  # the edited MJCF: bodies, inertias, leg joints; no geometry
             spec = mujoco.MjSpec.from_string(urdf)
             spec.compiler.balanceinertia = True
+            spec.option.gravity = [0.0, 0.0, -GRAVITY]  # Pinocchio's (the file may set its own)
         else:
             spec = mujoco.MjSpec.from_string(
                 urdf.replace(
