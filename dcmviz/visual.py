@@ -1,7 +1,8 @@
 """One visual model of each humanoid, shared by the dashboard (viser) and the recorder (rerun).
 
 Built from the robot's full URDF through Pinocchio's visual :class:`pinocchio.GeometryModel`
-(mesh paths resolve into example-robot-data's ``share/example-robot-data/robots``).  A
+(mesh paths resolve into example-robot-data's ``share/example-robot-data/robots``), or from its
+MJCF's geoms (``pin.buildGeomFromMJCF``) for an MJCF robot.  A
 :class:`RobotVisual` holds every visual mesh once (vertices in its own frame, colour, the link
 it hangs on) and poses them from a :class:`~dcmviz.backend.RobotPose`: floating base plus joint
 angles by URDF joint name, any joint not given at the robot's nominal posture.
@@ -78,7 +79,7 @@ def _ancestors(model: pin.Model, frame_id: int) -> tuple[str, ...]:
 
 
 def urdf_path(model_name: str) -> str:
-    """The robot's full URDF (the one the simulation edits), absolute."""
+    """The robot's full URDF or MJCF (the one the simulation edits), absolute."""
     return os.path.join(robots_dir(), robot_source(model_name).urdf)
 
 
@@ -88,11 +89,15 @@ class RobotVisual:
     def __init__(self, model_name: str) -> None:
         self.model_name = model_name
         path = urdf_path(model_name)
-        share = os.path.dirname(os.path.dirname(robots_dir()))  # package://example-robot-data/…
-        self.model = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())
-        geometry = pin.buildGeomFromUrdf(
-            self.model, path, pin.GeometryType.VISUAL, package_dirs=[share]
-        )
+        if path.lower().endswith((".xml", ".mjcf")):  # an MJCF model: its geoms, as Pinocchio
+            self.model = pin.buildModelFromMJCFAndRootJoint(path, pin.JointModelFreeFlyer())
+            geometry = pin.buildGeomFromMJCF(self.model, path, pin.GeometryType.VISUAL)
+        else:
+            share = os.path.dirname(os.path.dirname(robots_dir()))  # package://example-robot-data/…
+            self.model = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())
+            geometry = pin.buildGeomFromUrdf(
+                self.model, path, pin.GeometryType.VISUAL, package_dirs=[share]
+            )
         meshes, keep = [], []
         for i, obj in enumerate(geometry.geometryObjects):
             mesh = _mesh_of(obj)
