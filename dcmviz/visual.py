@@ -1,7 +1,8 @@
 """One visual model of each humanoid, shared by the dashboard (viser) and the recorder (rerun).
 
 Built from the robot's full URDF through Pinocchio's visual :class:`pinocchio.GeometryModel`
-(mesh paths resolve into example-robot-data's ``share/example-robot-data/robots``).  A
+(mesh paths resolve into example-robot-data's ``share/example-robot-data/robots``), or from its
+MJCF's geoms (``pin.buildGeomFromMJCF``) for an MJCF robot.  A
 :class:`RobotVisual` holds every visual mesh once (vertices in its own frame, colour, the link
 it hangs on) and poses them from a :class:`~dcmviz.backend.RobotPose`: floating base plus joint
 angles by URDF joint name, any joint not given at the robot's nominal posture.
@@ -79,11 +80,18 @@ def _ancestors(model: pin.Model, frame_id: int) -> tuple[str, ...]:
 
 
 def _read_visuals(
-    model: pin.Model, path: str, share: str
-) -> tuple[tuple[VisualMesh, ...], np.ndarray, np.ndarray]:
-    """The URDF's visual meshes, the joint each hangs on and its (4, 4) placement in that
-    joint's frame.  Pinocchio's geometry model (and every mesh it loaded) is dropped on return."""
-    geometry = pin.buildGeomFromUrdf(model, path, pin.GeometryType.VISUAL, package_dirs=[share])
+    path: str,
+) -> tuple[pin.Model, tuple[VisualMesh, ...], np.ndarray, np.ndarray]:
+    """The model of a URDF or MJCF file, its visual meshes, the joint each hangs on and its
+    (4, 4) placement in that joint's frame.  Pinocchio's geometry model (and every mesh it
+    loaded) is dropped on return."""
+    if path.lower().endswith((".xml", ".mjcf")):  # an MJCF model: its geoms, as Pinocchio
+        model = pin.buildModelFromMJCFAndRootJoint(path, pin.JointModelFreeFlyer())
+        geometry = pin.buildGeomFromMJCF(model, path, pin.GeometryType.VISUAL)
+    else:
+        share = os.path.dirname(os.path.dirname(robots_dir()))  # package://example-robot-data/…
+        model = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())
+        geometry = pin.buildGeomFromUrdf(model, path, pin.GeometryType.VISUAL, package_dirs=[share])
     meshes, joints, placements = [], [], []
     for obj in geometry.geometryObjects:
         mesh = _mesh_of(obj)
@@ -103,11 +111,12 @@ def _read_visuals(
         )
         joints.append(int(obj.parentJoint))
         placements.append(np.array(obj.placement.homogeneous, float))
-    return tuple(meshes), np.array(joints, int), np.array(placements, float).reshape(-1, 4, 4)
+    placements = np.array(placements, float).reshape(-1, 4, 4)
+    return model, tuple(meshes), np.array(joints, int), placements
 
 
 def urdf_path(model_name: str) -> str:
-    """The robot's full URDF (the one the simulation edits), absolute."""
+    """The robot's full URDF or MJCF (the one the simulation edits), absolute."""
     return os.path.join(robots_dir(), robot_source(model_name).urdf)
 
 
@@ -117,9 +126,7 @@ class RobotVisual:
     def __init__(self, model_name: str) -> None:
         self.model_name = model_name
         path = urdf_path(model_name)
-        share = os.path.dirname(os.path.dirname(robots_dir()))  # package://example-robot-data/…
-        self.model = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())
-        meshes, joints, placements = _read_visuals(self.model, path, share)
+        self.model, meshes, joints, placements = _read_visuals(path)
         self.meshes: tuple[VisualMesh, ...] = meshes
         # what posing needs of each mesh: its joint and its placement in that joint's frame
         # (oMg = oMi[joint] · placement, as pin.updateGeometryPlacements).  The geometry model is

@@ -571,3 +571,29 @@ def test_recovery_dropdown_changes_the_strategy_and_keeps_the_walk(dash: Dashboa
     drain(dash)
     assert dash.loop.session is session and session.t == t  # not restarted
     assert session.walker.control.recovery == "multi_step_timing"
+
+
+def test_camera_follow_climbs_with_the_ground_not_with_the_gait() -> None:
+    """The followed view moves up with the tread the robot stands on (the lower supporting sole),
+    not with the swinging foot or the soles' contact jitter."""
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    config = load_preset(PRESETS / "stairs_up.toml").replace(sim={"backend": "lip"})
+    d = Dashboard(server, config, presets_dir=PRESETS, start=False)
+    try:
+        session, rise = d.loop.session, config.terrain.stairs.rise
+        grounds = []
+        while session.t < 9.0:
+            for _ in range(20):
+                session.step()
+            d.loop._publish()
+            d.view._follow(d.loop.snapshot)
+            tick = d.loop.snapshot.tick
+            lower = min(f[2] for s, f in tick.state.feet.items() if tick.command.support[s])
+            assert d.view._follow_ground == pytest.approx(lower, abs=0.02)
+            grounds.append(d.view._follow_ground)
+        levels = np.unique(np.round(np.array(grounds), 6))
+        assert len(levels) >= 4  # it climbed
+        assert np.allclose(levels / rise, np.round(levels / rise), atol=0.05)  # tread by tread
+    finally:
+        d.stop()
+        server.stop()

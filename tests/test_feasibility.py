@@ -297,3 +297,19 @@ def test_runner_refuses_a_b_the_robot_cannot_walk_at(capsys) -> None:
     assert main([preset, "--sim", "lip", "--set", "dcm.b=0.33"]) == 2
     err = capsys.readouterr().err
     assert "dcm.b = 0.33" in err and "1.068 m" in err and "0.271 to 0.303 s" in err
+
+
+def test_stairs_from_feet_settled_in_the_contact_are_not_too_high():
+    """The walker plans from the measured feet, a millimetre deep in MuJoCo's soft contact: the
+    0.15 m stairs of stairs_up measure 0.151 m from them, within Talos's 0.15 m; 0.16 m does not."""
+    config = load_preset(PRESETS[0].parent / "stairs_up.toml")
+    spec = get_spec(config.robot.model)
+    feet, _ = plan_footsteps(config.gait)
+    sunk = {s: f.moved(f.position - [0.0, 0.0, 0.001]) for s, f in feet.items()}
+    plan = plan_from_config(config, start_feet=sunk)
+    assert abs(plan.steps[0].position[2] - sunk[plan.steps[0].side].position[2]) > 0.15
+    assert not [w for w in check_plan(plan, spec, config) if w.setting == "gait.step_height"
+                or "height change" in w.message]  # fmt: skip
+    high = config.replace(terrain={"stairs": {**config.terrain.stairs.model_dump(), "rise": 0.16}})
+    plan = plan_from_config(high, start_feet=sunk)
+    assert any("height change" in w.message for w in check_plan(plan, spec, high))

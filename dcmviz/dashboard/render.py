@@ -27,6 +27,7 @@ RENDER_FPS = 40.0  # scene updates per second (≥ 30 with margin for scheduling
 STATUS_DT_S = 0.5  # the status line is rewritten at most this often, and only if its text changed
 PLOT_DT_S = 2.0  # the live plot is redrawn this often (its data is the largest message)
 FOLLOW_DT_S = 0.1  # camera-follow updates (per client, so kept slow)
+FOLLOW_GROUND_M = 0.02  # the view follows a change of the ground under the robot beyond this
 FLOOR_LIFT_M = 0.012  # overlays on the floor sit this high (above the footsteps)
 MARKER_TOLERANCE_M = 5e-4  # a marker that moved less is not re-sent (below a pixel at 3 m)
 ARROW_TOLERANCE_M = 5e-3  # force arrows: ends that moved less are not re-sent
@@ -82,6 +83,7 @@ class SimView:
         self._steps_drawn: dict[str, tuple] = {}  # "adjusted"/"realised" → what is drawn
         self._status_text = ""
         self._follow_anchor: np.ndarray | None = None
+        self._follow_ground = 0.0  # m, the ground height the view follows
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="dcmviz-render", daemon=True)
 
@@ -234,12 +236,23 @@ class SimView:
         handle.visible = True
 
     def _follow(self, snap: Snapshot) -> None:
-        """Move every client's camera by the robot's horizontal displacement since last time."""
-        pose = snap.tick.pose if snap.tick is not None else None
+        """Move every client's camera by the robot's displacement since last time: horizontally
+        with the base, vertically with the ground it stands on (the lower supporting sole: it
+        changes only when the robot steps up or down terrain, so the view does not bob with the
+        gait)."""
+        tick = snap.tick
+        pose = tick.pose if tick is not None else None
         anchor = pose.base_position if pose is not None else snap.com
         if anchor is None:
             return
-        here = np.array([anchor[0], anchor[1], 0.0])
+        ground = self._follow_ground
+        if tick is not None:
+            standing = [f[2] for s, f in tick.state.feet.items() if tick.command.support.get(s)]
+            ground = float(min(standing)) if standing else ground
+        if abs(ground - self._follow_ground) < FOLLOW_GROUND_M:  # the soles' contact jitter
+            ground = self._follow_ground
+        self._follow_ground = ground
+        here = np.array([anchor[0], anchor[1], ground])
         last, self._follow_anchor = self._follow_anchor, here
         if not self.gui_follow.value or last is None:
             return

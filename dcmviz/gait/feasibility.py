@@ -44,6 +44,9 @@ SUPPORT_MARGIN_M = 0.01  # a VRP waypoint's ground point must be ≥ 1 cm inside
 # a plan that walks lower than Δz_vrp by more than this (m) says so: within it the CoM height is
 # within what the humanoid tracks anyway (the envelope's vertical limit is 2 cm)
 HEIGHT_TOLERANCE_M = 0.01
+# a plan starts from the measured feet, which settle a few mm into MuJoCo's soft contact: a
+# 0.15 m stair measured from them is 0.151 m high; step heights are judged with this slack (m)
+SINK_TOLERANCE_M = 0.005
 
 
 @dataclass(frozen=True)
@@ -216,14 +219,14 @@ def _step_warnings(
         (np.abs(dx) > spec.max_step_length_m + 1e-9)
         | (lateral > spec.max_step_width_m + 1e-9)
         | (lateral < spec.min_step_width_m - 1e-9)
-        | (np.abs(d[:, 2]) > spec.max_step_height_m + 1e-9)
+        | (np.abs(d[:, 2]) > spec.max_step_height_m + SINK_TOLERANCE_M)
     )
     for k in np.nonzero(bad)[0]:
         k = int(k)
         problem = reach_problem(spec, stances[k], steps[k])
         if abs(dx[k]) > spec.max_step_length_m + 1e-9:
             key = "gait.step_length"
-        elif abs(d[k, 2]) > spec.max_step_height_m + 1e-9:
+        elif abs(d[k, 2]) > spec.max_step_height_m + SINK_TOLERANCE_M:
             key = "gait.step_height"
         else:
             key = "gait.step_width"

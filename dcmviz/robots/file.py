@@ -73,29 +73,48 @@ def _finite(values: tuple[float, ...]) -> tuple[float, ...]:
 
 
 class ModelTable(_Table):
-    """``[model]``: the URDF (and optional SRDF) the robot is built from."""
+    """``[model]``: the URDF (and optional SRDF) or the MJCF the robot is built from."""
 
     source: Literal["example-robot-data", "file"] = "example-robot-data"
-    urdf: str  # inside example-robot-data's robots/ (source "example-robot-data") or a path
+    # inside example-robot-data's robots/ (source "example-robot-data") or a path
+    urdf: str | None = None
+    mjcf: str | None = None  # an MJCF model (MuJoCo XML): same rule as urdf; exclusive with urdf
     srdf: str | None = None  # same rule as urdf
-    reference_posture: str | None = None  # a <group_state> of the SRDF
+    reference_posture: str | None = None  # a <group_state> of the SRDF, or a <key> of the MJCF
 
     @field_validator("urdf")
     @classmethod
-    def _urdf_suffix(cls, v: str) -> str:
+    def _urdf_suffix(cls, v: str | None) -> str | None:
+        if v is None:
+            return v
         if v.lower().endswith((".xml", ".mjcf")):
             raise ValueError(
-                "MJCF models are not supported yet; expected a URDF file (.urdf). "
-                "MuJoCo's `compile` + `mj_saveLastXML` cannot write URDF; convert it with a "
-                "tool such as mjcf_urdf_simple_converter"
+                "expected a URDF file (.urdf); an MJCF model (MuJoCo XML) goes in model.mjcf"
             )
         if not v.lower().endswith(".urdf"):
             raise ValueError("expected a URDF file (.urdf)")
         return v
 
+    @field_validator("mjcf")
+    @classmethod
+    def _mjcf_suffix(cls, v: str | None) -> str | None:
+        if v is not None and not v.lower().endswith((".xml", ".mjcf")):
+            raise ValueError("expected an MJCF file (MuJoCo XML, .xml); a URDF goes in model.urdf")
+        return v
+
+    @model_validator(mode="after")
+    def _one_model(self) -> ModelTable:
+        if (self.urdf is None) == (self.mjcf is None):
+            given = "both" if self.urdf is not None else "neither"
+            raise ValueError(
+                f"model.urdf and model.mjcf: {given} given; expected exactly one of them "
+                "(a URDF path or an MJCF path)"
+            )
+        return self
+
     @model_validator(mode="after")
     def _posture_needs_srdf(self) -> ModelTable:
-        if self.reference_posture is not None and self.srdf is None:
+        if self.reference_posture is not None and self.srdf is None and self.mjcf is None:
             raise ValueError(
                 f"model.reference_posture = {self.reference_posture!r}: needs model.srdf "
                 "(the SRDF whose <group_state> it names)"
@@ -206,8 +225,19 @@ class RobotFile(_Table):
     walking: WalkingTable = WalkingTable()
     controller: dict[str, float | bool] = {}  # whole-body QP gains (dcmviz.sim.wbc.Gains fields)
     path: str = ""  # the file this was read from (set by the loader)
-    urdf_path: str = ""  # absolute (set by the loader)
+    urdf_path: str = ""  # absolute (set by the loader); "" for an MJCF model
+    mjcf_path: str = ""  # absolute (set by the loader); "" for a URDF model
     srdf_path: str | None = None  # absolute (set by the loader)
+
+    @property
+    def model_path(self) -> str:
+        """The model file (URDF or MJCF), absolute."""
+        return self.mjcf_path or self.urdf_path
+
+    @property
+    def model_key(self) -> str:
+        """``model.urdf`` or ``model.mjcf``: the key that names the model file."""
+        return "model.mjcf" if self.model.mjcf is not None else "model.urdf"
 
     @field_validator("posture")
     @classmethod
@@ -308,19 +338,33 @@ def parse_robot_file(path: str | Path) -> RobotFile:
         data: dict[str, Any] = tomllib.loads(raw.decode("utf-8"))
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
         raise RobotFileError(f"{path.name}: not valid TOML: {err}") from None
-    for key in ("path", "urdf_path", "srdf_path"):
+    for key in ("path", "urdf_path", "mjcf_path", "srdf_path"):
         if key in data:
             raise RobotFileError(f"{path.name}: {key}: unknown key (set by the loader)")
     try:
         robot = RobotFile.model_validate(data)
     except ValidationError as err:
         raise RobotFileError(f"{path.name}: {_format(err)}") from None
-    urdf = _model_path(path, robot.model, robot.model.urdf, "model.urdf")
+    urdf = (
+        ""
+        if robot.model.urdf is None
+        else _model_path(path, robot.model, robot.model.urdf, "model.urdf")
+    )
+    mjcf = (
+        ""
+        if robot.model.mjcf is None
+        else _model_path(path, robot.model, robot.model.mjcf, "model.mjcf")
+    )
     srdf = (
         None
         if robot.model.srdf is None
         else _model_path(path, robot.model, robot.model.srdf, "model.srdf")
     )
     return robot.model_copy(
-        update={"path": str(path.resolve()), "urdf_path": urdf, "srdf_path": srdf}
+        update={
+            "path": str(path.resolve()),
+            "urdf_path": urdf,
+            "mjcf_path": mjcf,
+            "srdf_path": srdf,
+        }
     )

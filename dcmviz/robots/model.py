@@ -91,7 +91,8 @@ class RobotModel:
     """A robot file built into a Pinocchio model with its nominal standing posture."""
 
     file: RobotFile
-    urdf_text: str  # edited: upper body locked, soles added, no geometry
+    # the edited model text, URDF or MJCF (``is_mjcf``): upper body locked, soles added, no geometry
+    urdf_text: str
     pin_model: object  # pinocchio.Model (free flyer), armature set
     joint_names: tuple[str, ...]  # actuated joints, Pinocchio's order
     legs: dict[str, tuple[str, ...]]  # side -> leg joints, hip to ankle
@@ -105,6 +106,11 @@ class RobotModel:
     damping: float
     derived: Derived
     spec: object = field(repr=False)  # dcmviz.robots.spec.RobotSpec (pins applied)
+
+    @property
+    def is_mjcf(self) -> bool:
+        """True if the robot file names an MJCF model (``urdf_text`` is then MJCF)."""
+        return bool(self.file.mjcf_path)
 
 
 def _err(rf: RobotFile, message: str) -> RobotFileError:
@@ -552,21 +558,53 @@ def _spec(rf: RobotFile, d: Derived) -> RobotSpec:
     return spec
 
 
+def _pinocchio_from_mjcf(rf: RobotFile, text: str):
+    """Pinocchio's model of the edited MJCF text, with a free-flyer root joint."""
+    import tempfile
+
+    import pinocchio as pin
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "robot.xml")
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+        try:
+            if hasattr(pin, "buildModelFromMJCFAndRootJoint"):  # pin ≥ 4.1
+                built = pin.buildModelFromMJCFAndRootJoint(path, pin.JointModelFreeFlyer())
+            else:  # (model, constraints): the edit leaves no equality constraints
+                built = pin.buildModelFromMJCF(path, pin.JointModelFreeFlyer(), "root_joint")
+        except Exception as err:  # noqa: BLE001 - Pinocchio raises plain exceptions
+            raise _err(
+                rf, f"model.mjcf = {rf.model.mjcf!r}: Pinocchio does not load the MJCF: {err}"
+            ) from None
+    return built[0] if isinstance(built, tuple) else built
+
+
 def build_from_file(rf: RobotFile) -> RobotModel:
     """Build and check a parsed robot file; RobotFileError naming the key otherwise."""
     import pinocchio as pin
 
-    root = _parse_urdf(rf)
-    legs = _legs(rf, root)
-    movable = {
-        j.get("name"): j.get("type") for j in root.findall("joint") if j.get("type") in MOVABLE
-    }
+    mjcf_src = None
+    if rf.mjcf_path:
+        from dcmviz.robots import mjcf
+
+        kind = "MJCF"
+        mjcf_src = mjcf.load_mjcf(rf)
+        legs = mjcf.legs(rf, mjcf_src)
+        movable = dict(mjcf_src.movable)
+    else:
+        kind = "URDF"
+        root = _parse_urdf(rf)
+        legs = _legs(rf, root)
+        movable = {
+            j.get("name"): j.get("type") for j in root.findall("joint") if j.get("type") in MOVABLE
+        }
     leg_joints = set(legs["left"]) | set(legs["right"])
     for name in rf.joints.keep:
         if movable.get(name) != "revolute":
             raise _err(
                 rf,
-                f"joints.keep: {name!r} is not a revolute joint of the URDF; expected joints to "
+                f"joints.keep: {name!r} is not a revolute joint of the {kind}; expected joints to "
                 "actuate besides the legs",
             )
     actuated = leg_joints | set(rf.joints.keep)
@@ -586,21 +624,30 @@ def build_from_file(rf: RobotFile) -> RobotModel:
                 f"joints.lock: {', '.join(loose)} neither locked nor kept; expected every "
                 "movable joint off the legs in joints.lock or joints.keep",
             )
-    nominal = srdf_state(rf)
+    if mjcf_src is not None and rf.srdf_path is None and rf.model.reference_posture is not None:
+        nominal = mjcf.keyframe_posture(rf, mjcf_src)
+    else:
+        nominal = srdf_state(rf)
     for name in rf.posture:
         if name not in movable:
             raise _err(
                 rf,
-                f"posture.{name}: no movable joint of that name in the URDF; expected one of "
+                f"posture.{name}: no movable joint of that name in the {kind}; expected one of "
                 f"{_suggest(sorted(movable), ('hip', 'knee', 'ankle'))}",
             )
     nominal.update(rf.posture)
     locked: dict[str, float] = {}
-    urdf, sole_parent = _edit_urdf(rf, root, actuated, nominal, locked)
-    try:
-        pm = pin.buildModelFromXML(urdf, pin.JointModelFreeFlyer())
-    except Exception as err:  # noqa: BLE001 - Pinocchio raises plain exceptions
-        raise _err(rf, f"model.urdf = {rf.model.urdf!r}: the URDF does not load: {err}") from None
+    if mjcf_src is not None:
+        text, sole_parent = mjcf.edit_mjcf(rf, mjcf_src, actuated, nominal, locked)
+        pm = _pinocchio_from_mjcf(rf, text)
+    else:
+        text, sole_parent = _edit_urdf(rf, root, actuated, nominal, locked)
+        try:
+            pm = pin.buildModelFromXML(text, pin.JointModelFreeFlyer())
+        except Exception as err:  # noqa: BLE001 - Pinocchio raises plain exceptions
+            raise _err(
+                rf, f"model.urdf = {rf.model.urdf!r}: the URDF does not load: {err}"
+            ) from None
     joint_names = tuple(pm.names[2:])
     if set(joint_names) != actuated:  # pragma: no cover - the edit keeps exactly these
         raise _err(rf, f"joints: unexpected actuated joints {joint_names}")
@@ -617,7 +664,11 @@ def build_from_file(rf: RobotFile) -> RobotModel:
             raise _err(
                 rf,
                 f"model.urdf: joint {name!r} has no <limit effort lower upper>; expected torque "
-                "and position limits on every actuated joint",
+                "and position limits on every actuated joint"
+                if rf.mjcf_path == ""
+                else f"model.mjcf: joint {name!r} has no range or no torque limit; expected a "
+                "range and an actuatorfrcrange (or a motor with a ctrlrange) on every actuated "
+                "joint",
             )
         limits[name] = lim
 
@@ -663,7 +714,7 @@ def build_from_file(rf: RobotFile) -> RobotModel:
     derived = _derive(pm, q, sole_frames, legs, joint_names, limits, rf)
     return RobotModel(
         file=rf,
-        urdf_text=urdf,
+        urdf_text=text,
         pin_model=pm,
         joint_names=joint_names,
         legs=legs,
@@ -698,7 +749,7 @@ def report(rm: RobotModel) -> str:
     lines = [
         f"{rf.name}: {rf.description}".rstrip(": "),
         f"  file {rf.path}",
-        f"  model {rf.urdf_path}" + (f" (SRDF {rf.srdf_path})" if rf.srdf_path else ""),
+        f"  model {rf.model_path}" + (f" (SRDF {rf.srdf_path})" if rf.srdf_path else ""),
         f"  legs: {', '.join(rm.legs['left'])} | {', '.join(rm.legs['right'])}",
         f"  kept: {', '.join(rf.joints.keep) or '-'}; locked: {len(rm.locked)} joints",
         f"  armature {rm.armature:.4g} kg m², damping {rm.damping:.4g} N m s/rad",

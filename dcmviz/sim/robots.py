@@ -22,6 +22,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
+from dcmviz import GRAVITY
 from dcmviz.robots import RobotSpec
 from dcmviz.robots.file import example_robot_data_dir, resolve_robot_path
 from dcmviz.robots.model import SIDES, RobotModel, build_model, solve_posture
@@ -38,7 +39,7 @@ def robots_dir() -> str:
 class RobotSource:
     """Where a robot comes from, as read from its robot file (for the visual model)."""
 
-    urdf: str  # absolute path of the full URDF
+    urdf: str  # absolute path of the full URDF (or MJCF: see RobotModel.is_mjcf)
     legs: tuple[str, ...]  # actuated joints, left leg then right leg (hip to ankle), then kept
     nominal: dict[str, float]  # nominal angle of every joint the posture sets (locked or not), rad
     sole_parent: dict[str, str | None]  # side -> link a sole link was added under (None: URDF's)
@@ -51,7 +52,7 @@ def robot_source(name: str) -> RobotSource:
     """Where robot ``name`` (built-in name or robot file path) comes from."""
     rm = build_model(name)
     return RobotSource(
-        urdf=rm.file.urdf_path,
+        urdf=rm.file.model_path,
         legs=(*rm.legs["left"], *rm.legs["right"], *rm.file.joints.keep),
         nominal=dict(rm.nominal),
         sole_parent=dict(rm.sole_parent),
@@ -98,13 +99,18 @@ class Robot:
         self.damping = rm.damping
 
         # --- MuJoCo --------------------------------------------------------------------------
-        spec = mujoco.MjSpec.from_string(
-            urdf.replace(
-                "</robot>",
-                '<mujoco><compiler discardvisual="true" balanceinertia="true" '
-                'strippath="false" fusestatic="false"/></mujoco></robot>',
+        if rm.is_mjcf:  # the edited MJCF: bodies, inertias, leg joints; no geometry
+            spec = mujoco.MjSpec.from_string(urdf)
+            spec.compiler.balanceinertia = True
+            spec.option.gravity = [0.0, 0.0, -GRAVITY]  # Pinocchio's (the file may set its own)
+        else:
+            spec = mujoco.MjSpec.from_string(
+                urdf.replace(
+                    "</robot>",
+                    '<mujoco><compiler discardvisual="true" balanceinertia="true" '
+                    'strippath="false" fusestatic="false"/></mujoco></robot>',
+                )
             )
-        )
         spec.option.timestep = 0.001
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
