@@ -108,3 +108,16 @@ def test_a_plan_keeps_every_footstep(monkeypatch) -> None:
     s = Session(Config().replace(sim={"backend": "lip"}, gait={"mode": "plan"}), backend="lip")
     s.run(s.plan.t_end + 0.5)
     assert len(s.realised_steps()) == s.steps_completed == len(s.plan.steps)
+
+
+def test_switching_robots_back_and_forth_keeps_one_backend() -> None:
+    talos = Config().replace(sim={"backend": "mujoco"})
+    g1 = talos.replace(robot={"model": "g1"}, dcm={"b": 0.26})
+    s = Session(talos, backend="mujoco")
+    backends = [weakref.ref(s.backend)]
+    for config in (g1, talos, g1):
+        s.set_config(config)
+        s.run(0.05)
+        backends.append(weakref.ref(s.backend))
+    gc.collect()
+    assert [b() is not None for b in backends] == [False, False, False, True]
