@@ -19,12 +19,16 @@ The recorder reads the session's :class:`~dcmviz.tick.Tick` records and, at :met
 its robot spec and nominal plan; nothing else of the session.
 
 Each recorder owns a dedicated :class:`rerun.RecordingStream`, so several recordings can coexist.
+A stopped recorder's stream is kept for the next recording: rerun never frees a stream created
+from Python (it only disconnects it; its threads and buffers stay, about 2 MB and two threads
+per recording), so streams are reused instead of one being created per recording.
 The dashboard's Record toggle calls :meth:`Recorder.start` and :meth:`Recorder.stop`.
 """
 
 from __future__ import annotations
 
 import math
+import threading
 import uuid
 from collections import defaultdict, deque
 from dataclasses import dataclass
@@ -64,6 +68,33 @@ FOOT_COLORS = {
 
 
 # ---------------------------------------------------------------------------------------------
+# the streams: rerun keeps every RecordingStream made from Python alive until the process ends
+# (rerun issue #2116: dropped streams are disconnected, never freed), so a stopped recorder's
+# stream waits here for the next recording; there are never more than recordings at once.
+
+_IDLE_STREAMS: list[rr.RecordingStream] = []
+_STREAMS_LOCK = threading.Lock()
+
+
+def _open_stream() -> rr.RecordingStream:
+    """A disconnected stream of an earlier recording (its timeline cleared), or a new one."""
+    with _STREAMS_LOCK:
+        stream = _IDLE_STREAMS.pop() if _IDLE_STREAMS else None
+    if stream is None:
+        return rr.RecordingStream("dcmviz", recording_id=str(uuid.uuid4()))
+    stream.reset_time()
+    return stream
+
+
+def _close_stream(stream: rr.RecordingStream) -> None:
+    """Flush and close the stream's file, and keep the stream for the next recording."""
+    stream.flush()
+    stream.disconnect()
+    with _STREAMS_LOCK:
+        _IDLE_STREAMS.append(stream)
+
+
+# ---------------------------------------------------------------------------------------------
 # the recorder
 
 
@@ -88,7 +119,7 @@ class Recorder:
         if self.stream is not None:
             raise RuntimeError("Recorder.start: already recording; call stop() first")
         self.path = Path(path)
-        self.stream = rr.RecordingStream("dcmviz", recording_id=str(uuid.uuid4()))
+        self.stream = _open_stream()
         self.stream.save(self.path)
         self._session = session
         self._next_t = -math.inf
@@ -113,8 +144,7 @@ class Recorder:
         self._unsubscribe()
         self._flush()
         stream, self.stream, self._session = self.stream, None, None
-        stream.flush()
-        stream.disconnect()
+        _close_stream(stream)
         return self.path
 
     # -- logging --------------------------------------------------------------------------------
