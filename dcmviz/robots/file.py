@@ -33,6 +33,11 @@ class RobotFileError(ValueError):
     """A robot file is invalid; the message names the file, the key and what was expected."""
 
 
+def file_error(rf: RobotFile, message: str) -> RobotFileError:
+    """``message`` (the key and what was expected) as an error of robot file ``rf``."""
+    return RobotFileError(f"{os.path.basename(rf.path)}: {message}")
+
+
 def example_robot_data_dir() -> str:
     """``example-robot-data``'s ``robots`` directory (its package data under the cmeel prefix).
 

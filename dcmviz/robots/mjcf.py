@@ -24,18 +24,17 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
-from dcmviz.robots.file import RobotFile, RobotFileError
+from dcmviz.robots.file import RobotFile
+from dcmviz.robots.file import file_error as _err
+from dcmviz.robots.legs import find_legs
 
 SIDES = ("left", "right")
 _KIND = {0: "free", 1: "ball", 2: "prismatic", 3: "revolute"}  # mjtJoint → URDF-like words
-
-
-def _err(rf: RobotFile, message: str) -> RobotFileError:
-    return RobotFileError(f"{os.path.basename(rf.path)}: {message}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,53 +112,20 @@ def keyframe_posture(rf: RobotFile, src: MjcfSource) -> dict[str, float]:
 def legs(rf: RobotFile, src: MjcfSource) -> dict[str, tuple[str, ...]]:
     """The joints from the root body to each foot's body, hip to ankle (hinges only)."""
     m = src.model
-    found = {}
-    for side in SIDES:
-        foot = getattr(rf.feet, side)
-        if foot.link not in src.bodies:
-            hits = [b for b in src.bodies if any(w in b.lower() for w in ("foot", "ankle", "sole"))]
-            raise _err(
-                rf,
-                f"feet.{side}.link = {foot.link!r}: no such body in "
-                f"{os.path.basename(rf.mjcf_path)}; expected a body of the foot, e.g. "
-                f"{', '.join((hits or list(src.bodies[1:]))[:8])}",
-            )
-        chain, b = [], m.body(foot.link).id
+
+    def chain_of(foot: str) -> Iterator[tuple[str, str]]:
+        b = m.body(foot).id
         while b > 0:
             for j in range(m.njnt):
-                if m.jnt_bodyid[j] == b and _KIND[int(m.jnt_type[j])] != "free":
-                    if _KIND[int(m.jnt_type[j])] != "revolute":
-                        raise _err(
-                            rf,
-                            f"feet.{side}.link = {foot.link!r}: leg joint {m.joint(j).name!r} is "
-                            f"{_KIND[int(m.jnt_type[j])]}; expected hinge leg joints",
-                        )
-                    chain.append(m.joint(j).name)
+                kind = _KIND[int(m.jnt_type[j])]
+                if m.jnt_bodyid[j] == b and kind != "free":
+                    yield m.joint(j).name, kind
             b = int(m.body_parentid[b])
-        if len(chain) < 3:
-            raise _err(
-                rf,
-                f"feet.{side}.link = {foot.link!r}: no leg found: the chain from the root body "
-                f"to it has {len(chain)} hinge joint(s); expected a leg of at least 3 (hip, "
-                "knee, ankle)",
-            )
-        found[side] = tuple(reversed(chain))
-    shared = set(found["left"]) & set(found["right"])
-    if shared:
-        raise _err(
-            rf,
-            f"feet.right.link = {rf.feet.right.link!r}: shares joints {sorted(shared)} with "
-            f"feet.left.link = {rf.feet.left.link!r}; expected two separate legs",
-        )
-    for name, body in rf.bodies.items():
-        if body not in src.bodies:
-            hits = [b for b in src.bodies if any(w in b.lower() for w in ("torso", "pelvis"))]
-            raise _err(
-                rf,
-                f"bodies.{name} = {body!r}: no such body in {os.path.basename(rf.mjcf_path)}; "
-                f"expected one of its bodies, e.g. {', '.join((hits or list(src.bodies[1:]))[:8])}",
-            )
-    return found
+
+    return find_legs(
+        rf, list(src.bodies[1:]), "body", os.path.basename(rf.mjcf_path), chain_of, "hinge",
+        "body",
+    )  # fmt: skip
 
 
 def _torque_limit(m, j: int) -> float:

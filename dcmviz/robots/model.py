@@ -21,13 +21,17 @@ import functools
 import math
 import os
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from dcmviz import GRAVITY
-from dcmviz.robots.file import RobotFile, RobotFileError, parse_robot_file, resolve_robot_path
+from dcmviz.robots.file import RobotFile, parse_robot_file, resolve_robot_path
+from dcmviz.robots.file import file_error as _err
+from dcmviz.robots.legs import find_legs
+from dcmviz.robots.legs import suggest as _suggest
 from dcmviz.robots.spec import RobotSpec
 
 SIDES = ("left", "right")
@@ -113,10 +117,6 @@ class RobotModel:
         return bool(self.file.mjcf_path)
 
 
-def _err(rf: RobotFile, message: str) -> RobotFileError:
-    return RobotFileError(f"{os.path.basename(rf.path)}: {message}")
-
-
 def srdf_state(rf: RobotFile) -> dict[str, float]:
     """Joint angles of ``model.reference_posture`` in ``model.srdf`` (empty without one)."""
     if rf.srdf_path is None or rf.model.reference_posture is None:
@@ -147,11 +147,6 @@ def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
 
 
-def _suggest(names: list[str], words: tuple[str, ...]) -> str:
-    hits = [n for n in names if any(w in n.lower() for w in words)]
-    return ", ".join(hits[:8]) if hits else ", ".join(names[:8])
-
-
 def _parse_urdf(rf: RobotFile) -> ET.Element:
     try:
         return ET.parse(rf.urdf_path).getroot()
@@ -168,51 +163,19 @@ def _legs(rf: RobotFile, root: ET.Element) -> dict[str, tuple[str, ...]]:
         if child is not None:
             parent_joint[child.get("link")] = joint
     roots = [n for n in links if n not in parent_joint]
-    legs = {}
-    for side in SIDES:
-        foot = getattr(rf.feet, side)
-        if foot.link not in links:
-            raise _err(
-                rf,
-                f"feet.{side}.link = {foot.link!r}: no such link in "
-                f"{os.path.basename(rf.urdf_path)}; expected a link of the foot, e.g. "
-                f"{_suggest(links, ('foot', 'ankle', 'sole', 'toe'))}",
-            )
-        chain, link = [], foot.link
+
+    def chain_of(foot: str) -> Iterator[tuple[str, str]]:
+        link = foot
         while link in parent_joint:
             joint = parent_joint[link]
             if joint.get("type") in MOVABLE:
-                if joint.get("type") != "revolute":
-                    raise _err(
-                        rf,
-                        f"feet.{side}.link = {foot.link!r}: leg joint {joint.get('name')!r} is "
-                        f"{joint.get('type')}; expected revolute leg joints",
-                    )
-                chain.append(joint.get("name"))
+                yield joint.get("name"), joint.get("type")
             link = joint.find("parent").get("link")
-        if len(chain) < 3:
-            raise _err(
-                rf,
-                f"feet.{side}.link = {foot.link!r}: no leg found: the chain from the root link "
-                f"{(roots or ['?'])[0]!r} to it has {len(chain)} revolute joint(s); expected a "
-                "leg of at least 3 (hip, knee, ankle)",
-            )
-        legs[side] = tuple(reversed(chain))
-    shared = set(legs["left"]) & set(legs["right"])
-    if shared:
-        raise _err(
-            rf,
-            f"feet.right.link = {rf.feet.right.link!r}: shares joints {sorted(shared)} with "
-            f"feet.left.link = {rf.feet.left.link!r}; expected two separate legs",
-        )
-    for name, link in rf.bodies.items():
-        if link not in links:
-            raise _err(
-                rf,
-                f"bodies.{name} = {link!r}: no such link in {os.path.basename(rf.urdf_path)}; "
-                f"expected one of its links, e.g. {_suggest(links, ('torso', 'pelvis', 'base'))}",
-            )
-    return legs
+
+    return find_legs(
+        rf, links, "link", os.path.basename(rf.urdf_path), chain_of, "revolute",
+        f"link {(roots or ['?'])[0]!r}",
+    )  # fmt: skip
 
 
 def _edit_urdf(
