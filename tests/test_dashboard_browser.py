@@ -31,14 +31,6 @@ if not os.path.exists(CHROMIUM):
 
 
 @pytest.fixture(scope="module")
-def shots(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    env = os.environ.get("DCMVIZ_SCREENSHOTS")
-    path = Path(env) if env else tmp_path_factory.mktemp("screenshots")
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
-@pytest.fixture(scope="module")
 def app() -> Iterator[tuple[Dashboard, str]]:
     port = free_port()
     server = viser.ViserServer(host="127.0.0.1", port=port, verbose=False)

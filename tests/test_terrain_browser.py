@@ -63,14 +63,6 @@ def changed_at(before: np.ndarray, after: np.ndarray, uv: np.ndarray, r: int = 6
     return out
 
 
-@pytest.fixture(scope="module")
-def shots(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    env = os.environ.get("DCMVIZ_SCREENSHOTS")
-    path = Path(env) if env else tmp_path_factory.mktemp("screenshots")
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
 def test_stairs_preset_shows_the_stairs_and_talos_on_them(shots: Path) -> None:
     server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
     dashboard = Dashboard(server, Config().replace(sim={"backend": "lip"}), presets_dir=PRESETS)
