@@ -9,6 +9,7 @@ bound of ×0.3 failed a suite run while other jobs loaded the two cores (×0.21)
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import time
@@ -22,6 +23,7 @@ pytestmark = pytest.mark.browser
 viser = pytest.importorskip("viser")
 sync_api = pytest.importorskip("playwright.sync_api")
 
+import helpers  # noqa: E402
 from helpers import free_port  # noqa: E402
 
 from dcmviz.config import load_preset  # noqa: E402
@@ -36,13 +38,8 @@ if not os.path.exists(CHROMIUM):
     pytest.skip("Debian chromium is not installed", allow_module_level=True)
 
 
-def wait_for(predicate, timeout: float = 20.0, dt: float = 0.1) -> bool:
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        if predicate():
-            return True
-        time.sleep(dt)
-    return predicate()
+# polling five pages' text is costly: every 0.1 s, for up to 20 s
+wait_for = functools.partial(helpers.wait_for, timeout=20.0, dt=0.1)
 
 
 def shown_t(page) -> float | None:
