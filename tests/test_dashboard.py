@@ -11,7 +11,7 @@ import pytest
 
 viser = pytest.importorskip("viser")
 
-from helpers import free_port  # noqa: E402
+from helpers import free_port, wait_for  # noqa: E402
 
 from dcmviz.config import (  # noqa: E402
     MAX_PRESET_BYTES,
@@ -597,3 +597,24 @@ def test_camera_follow_climbs_with_the_ground_not_with_the_gait() -> None:
     finally:
         d.stop()
         server.stop()
+
+
+def test_a_frame_that_raises_does_not_end_the_drawing(dash: Dashboard) -> None:
+    """One frame raising (seen: viser's message buffer, "deque mutated during iteration", while
+    a plot was sent) is counted and reported; the next frames draw again for every tab."""
+    view, calls = dash.view, []
+    show = view._show_status
+
+    def flaky(snap, now) -> None:
+        calls.append(now)
+        if len(calls) == 1:
+            raise RuntimeError("deque mutated during iteration")
+        show(snap, now)
+
+    view._show_status = flaky
+    view.start()
+    try:
+        assert wait_for(lambda: len(calls) >= 3, timeout=10.0)
+        assert view.faults == 1 and view._thread.is_alive()
+    finally:
+        view.stop()

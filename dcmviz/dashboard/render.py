@@ -83,6 +83,7 @@ class SimView:
         self._steps_drawn: dict[str, tuple] = {}  # "adjusted"/"realised" → what is drawn
         self._status_text = ""
         self._follow_anchor: np.ndarray | None = None
+        self.faults = 0  # frames that raised (each is reported; drawing goes on)
         self._follow_ground = 0.0  # m, the ground height the view follows
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="dcmviz-render", daemon=True)
@@ -107,30 +108,33 @@ class SimView:
         while not self._stop.is_set():
             t0 = time.perf_counter()
             snap = self.loop.snapshot
-            if snap is not last:
-                try:
+            try:
+                if snap is not last:
                     self.draw_snapshot(snap, last)
-                except Exception as err:  # noqa: BLE001 - never let drawing kill the thread
-                    print(f"dcmviz: drawing failed: {err!r}")
-                if (
-                    snap.history is not last_history
-                    and snap.history
-                    and (t0 - last_plot >= PLOT_DT_S or not snap.playing)
-                ):
-                    self.live_plot.draw(snap.history)
-                    last_history, last_plot = snap.history, t0
-                last = snap
-                frames += 1
-                self.frames_drawn += 1
-            if t0 - fps_t0 >= 1.0:
-                self.fps = frames / (t0 - fps_t0)
-                frames, fps_t0 = 0, t0
-            if t0 - last_follow >= FOLLOW_DT_S:
-                self._follow(snap)
-                last_follow = t0
-            if t0 - last_status >= STATUS_DT_S or self.status.is_new(snap):
-                self._show_status(snap, t0)
-                last_status = t0
+                    if (
+                        snap.history is not last_history
+                        and snap.history
+                        and (t0 - last_plot >= PLOT_DT_S or not snap.playing)
+                    ):
+                        self.live_plot.draw(snap.history)
+                        last_history, last_plot = snap.history, t0
+                    last = snap
+                    frames += 1
+                    self.frames_drawn += 1
+                if t0 - fps_t0 >= 1.0:
+                    self.fps = frames / (t0 - fps_t0)
+                    frames, fps_t0 = 0, t0
+                if t0 - last_follow >= FOLLOW_DT_S:
+                    self._follow(snap)
+                    last_follow = t0
+                if t0 - last_status >= STATUS_DT_S or self.status.is_new(snap):
+                    self._show_status(snap, t0)
+                    last_status = t0
+            except Exception as err:  # noqa: BLE001 - no frame may end the drawing for every tab
+                # (seen: viser's message buffer raising "deque mutated during iteration" while
+                # a plot was sent); the next frame draws again
+                self.faults += 1
+                print(f"dcmviz: drawing failed: {err!r}")
             next_frame = max(next_frame + period, time.perf_counter() - period)
             time.sleep(max(0.0, next_frame - time.perf_counter()))
 
