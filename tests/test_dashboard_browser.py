@@ -272,9 +272,9 @@ def test_upload_preset(page, app, shots: Path) -> None:
 def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
     """Clicking the point mass (a clickable sphere at the CoM) pushes along the view direction;
     one click, one push, and the status names the force it applied.  Every wait is on its
-    condition: the camera the tab reports, the sphere drawn where it projects, no pop-up over it."""
-    import viser.transforms as vtf
-
+    condition: the camera the tab reports, the sphere drawn where it projects, no pop-up over it.
+    Before the click the tab shows its aim arrow (its own view direction, the panel's |F|), and
+    the click applies exactly that force."""
     dashboard, _ = app
     dashboard.sim_panel.on_play(False)
     assert wait_for(lambda: not dashboard.loop.snapshot.playing)
@@ -285,13 +285,7 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
     client.camera.look_at = com + np.array([0.0, -0.5, 0.0])  # the CoM left of the panel
     # the tab applied the camera once it reports it back
     assert wait_for(lambda: np.allclose(client.camera.position, position, atol=1e-3))
-    cam = client.camera
-    # pinhole projection (viser cameras are OpenCV-style: x right, y down, z forward)
-    R = vtf.SO3(np.asarray(cam.wxyz)).as_matrix()
-    p = R.T @ (com - np.asarray(cam.position))
-    f = 0.5 * cam.image_height / np.tan(0.5 * cam.fov)
-    u = (0.5 * cam.image_width + f * p[0] / p[2]) / cam.image_width
-    v = (0.5 * cam.image_height + f * p[1] / p[2]) / cam.image_height
+    u, v = project(client.camera, com)
     box = page.locator("canvas").first.bounding_box()
     x, y = box["x"] + u * box["width"], box["y"] + v * box["height"]
     notes = page.locator(".mantine-Notification-root")
@@ -313,16 +307,54 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
         return bool(np.array_equal(a, b) and dark.mean() > 0.3)
 
     assert wait_for(sphere_drawn, timeout=15)
+    # the tab's aim arrow: its own horizontal view direction (from the camera set above) and the
+    # panel's magnitude, drawn in the tab before the click
+    view = np.asarray(client.camera.look_at) - np.asarray(client.camera.position)
+    view[2] = 0.0
+    view /= np.linalg.norm(view)
+    magnitude = dashboard.push_panel.gui_push_magnitude.value
+
+    def aimed() -> bool:
+        shown = dashboard.aim.shown(client.client_id)
+        return shown is not None and float(shown[0] @ view) > np.cos(np.radians(2.0))
+
+    assert wait_for(aimed)
+    direction, shown_magnitude, label = dashboard.aim.shown(client.client_id)
+    assert shown_magnitude == magnitude and f"{magnitude:.0f} N" in label
+    # and the tab draws it: orange where the arrow's middle projects
+    ax, ay = project(client.camera, dashboard.aim.world_points(client.client_id).mean(axis=0))
+    arrow_clip = {"x": box["x"] + ax * box["width"] - 4, "y": box["y"] + ay * box["height"] - 4,
+                  "width": 8, "height": 8}  # fmt: skip
+
+    def orange() -> bool:
+        px = pixels_of(page, arrow_clip).reshape(-1, 3)
+        return bool(((px[:, 0] > 180) & (px[:, 1] > 70) & (px[:, 1] < 180) & (px[:, 2] < 90)).any())
+
+    assert wait_for(orange, timeout=15)
     n, clicks = len(dashboard.loop.session.pushes), dashboard.push_panel.clicks
     page.mouse.click(x, y)
     assert wait_for(lambda: len(dashboard.loop.session.pushes) == n + 1, timeout=5)
     assert dashboard.push_panel.clicks == clicks + 1
     push = dashboard.loop.session.pushes[-1]
     assert push.body == "torso"
-    assert push.force[0] > 0.8 * np.linalg.norm(push.force)  # along the view, horizontal
+    # exactly the force the arrow showed: the view's horizontal direction times |F|
+    np.testing.assert_allclose(push.force, magnitude * view, atol=1e-6 * magnitude)
     dashboard.sim_panel.on_play(True)
     page.get_by_text("pushed torso").first.wait_for(timeout=5_000)  # the status names it
     page.screenshot(path=shots / "07_click_push.png")
+
+
+def project(cam, point: np.ndarray) -> tuple[float, float]:
+    """Where ``point`` appears in the canvas, as fractions of its width and height (pinhole
+    projection; viser cameras are OpenCV-style: x right, y down, z forward)."""
+    import viser.transforms as vtf
+
+    R = vtf.SO3(np.asarray(cam.wxyz)).as_matrix()
+    p = R.T @ (np.asarray(point) - np.asarray(cam.position))
+    f = 0.5 * cam.image_height / np.tan(0.5 * cam.fov)
+    u = (0.5 * cam.image_width + f * p[0] / p[2]) / cam.image_width
+    v = (0.5 * cam.image_height + f * p[1] / p[2]) / cam.image_height
+    return float(u), float(v)
 
 
 def pixels_of(page, clip: dict) -> np.ndarray:

@@ -28,6 +28,7 @@ import viser
 from dcmviz import GRAVITY
 from dcmviz.config import MAX_PRESET_BYTES, PRESETS_DOC, Config
 from dcmviz.dashboard import scene
+from dcmviz.dashboard.aim import PushAim
 from dcmviz.dashboard.editor import CURRENT, ConfigEditor
 from dcmviz.dashboard.feasibility import FeasibilityPanel, likely_cause
 from dcmviz.dashboard.guard import install_guard
@@ -106,6 +107,10 @@ class Dashboard:
             self.sim_panel = SimPanel(gui, self.loop, self.controls, config)
             gui.add_markdown(scene.SCENE_LEGEND)
             self.push_panel = PushPanel(gui, self.loop, self.editor, self.notifier)
+        # each tab's arrow: the force a click on the robot applies from that tab's view
+        self.aim = PushAim(server, self.push_panel.click_force)
+        self.push_panel.aim = self.aim
+        self.push_panel.on_hint(lambda _hint: self.aim.refresh())
         with tabs.add_tab("Presets", viser.Icon.FILE_SETTINGS):
             self.preset_panel = PresetPanel(gui, self.editor, self.notifier, presets_dir, preset)
             self.recording = RecordingPanel(gui, self.loop, self.notifier, self.config_name)
@@ -137,6 +142,7 @@ class Dashboard:
             status=StatusLine(self.gui_status, self.config_name, extra=self.status_extra),
             gui_follow=self.sim_panel.gui_follow,
             on_body_click=self.notifier.guarded("click-to-push", self.push_panel.on_body_click),
+            on_follow=self.aim.follow,
         )  # fmt: skip
         self._wire()
         self.show_config(config, preset)

@@ -10,6 +10,7 @@ import numpy as np
 import viser
 
 from dcmviz.config import Config, ConfigError, config_from_dict
+from dcmviz.dashboard.aim import PushAim
 from dcmviz.dashboard.editor import ConfigEditor
 from dcmviz.dashboard.loop import SimLoop
 from dcmviz.dashboard.notify import Notifier
@@ -56,6 +57,7 @@ class PushPanel:
         self.clicks = 0  # clicks on the robot that reached the server
         self.last_push = (-math.inf, "")  # (monotonic time, what the last click pushed)
         self._hint_listeners: list[Callable[[str], None]] = []
+        self.aim: PushAim | None = None  # each tab's arrow (the dashboard sets it)
         with gui.add_folder("Push"):
             self.gui_push_direction = gui.add_slider(
                 "direction ψ_F [deg]", min=-180.0, max=180.0, step=5.0, initial_value=90.0,
@@ -83,8 +85,9 @@ class PushPanel:
                 notifier.guarded("Push", lambda event: self.on_push(event.client))
             )
             gui.add_markdown(
-                "<small>Or click the robot: it is pushed at that body along the view "
-                "direction. Arrows: <span style='color:#e61e1e'>applied force</span>, "
+                "<small>Or click the robot: it is pushed at that body along your view, as "
+                "the <span style='color:#ff8c00'>orange arrow</span> beside it shows. Arrows: "
+                "<span style='color:#e61e1e'>applied force</span>, "
                 "<span style='color:#1eaa3c'>observer estimate F̂</span> (above the head)."
                 "</small>"
             )
@@ -96,8 +99,13 @@ class PushPanel:
         """What a click on the robot does, with the force it will apply."""
         return (
             f"Click the robot to push it: {self.gui_push_magnitude.value:.0f} N for "
-            f"{self.gui_push_duration.value:.2f} s along your view (Simulate tab → Push)"
+            f"{self.gui_push_duration.value:.2f} s along your view, as the orange arrow shows "
+            "(Simulate tab → Push)"
         )
+
+    def click_force(self) -> tuple[float, float]:
+        """What a click applies: (magnitude N, duration s)."""
+        return float(self.gui_push_magnitude.value), float(self.gui_push_duration.value)
 
     def on_hint(self, listener: Callable[[str], None]) -> None:
         """Call ``listener(hint)`` when the force a click applies changes."""
@@ -122,9 +130,13 @@ class PushPanel:
         return self.push(force, self.gui_push_body.value, client)
 
     def on_body_click(self, body: str, event: viser.SceneNodePointerEvent) -> bool:
-        """The robot was clicked: push that body along the horizontal view direction."""
+        """The robot was clicked: push that body along the tab's horizontal view direction (what
+        its aim arrow shows; the click ray's where the view is vertical or there is no aim)."""
         self.clicks += 1
-        force = horizontal_force(event.ray_direction, self.gui_push_magnitude.value)
+        direction = event.ray_direction
+        if self.aim is not None:
+            direction = self.aim.direction(event.client, event.ray_direction)
+        force = horizontal_force(direction, self.gui_push_magnitude.value)
         ok = self.push(force, body, event.client)
         if ok:  # the status line says it (a pop-up per click would cover the robot)
             self.last_push = (

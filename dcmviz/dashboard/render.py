@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 
 import numpy as np
 import viser
@@ -68,6 +69,7 @@ class SimView:
         status: StatusLine,
         gui_follow: viser.GuiInputHandle[bool],
         on_body_click: BodyClick,
+        on_follow: Callable[[np.ndarray | None], object] | None = None,
     ) -> None:
         self.server = server
         self.loop = loop
@@ -75,6 +77,8 @@ class SimView:
         self.status = status
         self.gui_follow = gui_follow
         self.on_body_click = on_body_click
+        # called at FOLLOW_DT_S with the ground point under the robot (the tabs' aim arrows)
+        self.on_follow = on_follow
         self.robot_view: RobotView | None = None
         self.fps = 0.0
         self.frames_drawn = 0
@@ -125,7 +129,9 @@ class SimView:
                     self.fps = frames / (t0 - fps_t0)
                     frames, fps_t0 = 0, t0
                 if t0 - last_follow >= FOLLOW_DT_S:
-                    self._follow(snap)
+                    here = self._follow(snap)
+                    if self.on_follow is not None:
+                        self.on_follow(here)
                     last_follow = t0
                 if t0 - last_status >= STATUS_DT_S or self.status.is_new(snap):
                     self._show_status(snap, t0)
@@ -239,16 +245,16 @@ class SimView:
             handle.points = points
         handle.visible = True
 
-    def _follow(self, snap: Snapshot) -> None:
+    def _follow(self, snap: Snapshot) -> np.ndarray | None:
         """Move every client's camera by the robot's displacement since last time: horizontally
         with the base, vertically with the ground it stands on (the lower supporting sole: it
         changes only when the robot steps up or down terrain, so the view does not bob with the
-        gait)."""
+        gait).  Returns that ground point under the robot (None before there is one)."""
         tick = snap.tick
         pose = tick.pose if tick is not None else None
         anchor = pose.base_position if pose is not None else snap.com
         if anchor is None:
-            return
+            return None
         ground = self._follow_ground
         if tick is not None:
             standing = [f[2] for s, f in tick.state.feet.items() if tick.command.support.get(s)]
@@ -259,10 +265,10 @@ class SimView:
         here = np.array([anchor[0], anchor[1], ground])
         last, self._follow_anchor = self._follow_anchor, here
         if not self.gui_follow.value or last is None:
-            return
+            return here
         delta = here - last
         if float(np.linalg.norm(delta)) < 1e-4:  # standing still
-            return
+            return here
         for client in list(self.server.get_clients().values()):
             try:
                 # moving the camera position translates the view (the client keeps the
@@ -270,6 +276,7 @@ class SimView:
                 client.camera.position = client.camera.position + delta
             except Exception:  # noqa: BLE001 - a client that just closed
                 pass
+        return here
 
     def _make_markers(self) -> None:
         scene = self.server.scene
