@@ -282,9 +282,14 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
     com = np.asarray(dashboard.loop.snapshot.com)
     position = com + np.array([-2.0, -0.6, 0.4])  # behind: view ≈ +x
     client.camera.position = position
-    client.camera.look_at = com + np.array([0.0, -0.5, 0.0])  # the CoM left of the panel
-    # the tab applied the camera once it reports it back
-    assert wait_for(lambda: np.allclose(client.camera.position, position, atol=1e-3))
+    look_at = com + np.array([0.0, -0.5, 0.0])  # the CoM left of the panel
+    client.camera.look_at = look_at
+    # the tab applied the camera once it reports both back (the orientation follows the look-at:
+    # projecting with the position alone raced the turn when this test ran first)
+    assert wait_for(
+        lambda: np.allclose(client.camera.position, position, atol=1e-3)
+        and np.allclose(client.camera.look_at, look_at, atol=1e-3)
+    )
     u, v = project(client.camera, com)
     box = page.locator("canvas").first.bounding_box()
     x, y = box["x"] + u * box["width"], box["y"] + v * box["height"]

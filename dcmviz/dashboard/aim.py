@@ -97,14 +97,13 @@ class PushAim:
         them)."""
         with self._lock:
             self._anchor = None if anchor is None else np.asarray(anchor, float).copy()
-            aims = list(self._aims.values())
-        for aim in aims:
-            self._draw(aim)
+        self.refresh()
 
     def refresh(self) -> None:
         """The force a click applies changed: redraw every tab's arrow."""
+        connected = self.server.get_clients()  # (a closing tab may not be disconnected yet)
         with self._lock:
-            aims = list(self._aims.values())
+            aims = [a for cid, a in self._aims.items() if cid in connected]
         for aim in aims:
             self._draw(aim)
 

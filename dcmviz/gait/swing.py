@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -17,16 +18,24 @@ RETARGET_FREEZE = 0.8  # the swing target is frozen for the last 20 % of single 
 def _quintic_coefficients(
     p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, p1: np.ndarray, T: float
 ) -> np.ndarray:
-    """Coefficients c (6, d) of p(τ) = Σ c_i τ^i with p, ṗ, p̈ given at 0 and p(T) = p1, ṗ = p̈ = 0."""
-    c0, c1, c2 = p0, v0, 0.5 * a0
+    """Coefficients c (6, d) of p(τ) = Σ c_i τ^i with p, ṗ, p̈ given at 0 and p(T) = p1, ṗ = p̈ = 0.
+
+    Per component in Python floats (the rows are 3 long: numpy's per-call overhead would be most
+    of the cost), the same operations in the same order as the vector form."""
     T2, T3, T4, T5 = T * T, T**3, T**4, T**5
-    d = p1 - (c0 + c1 * T + c2 * T2)
-    e = -(c1 + 2 * c2 * T)
-    f = -(2 * c2)
-    c3 = (10 * d - 4 * e * T + 0.5 * f * T2) / T3
-    c4 = (-15 * d + 7 * e * T - f * T2) / T4
-    c5 = (6 * d - 3 * e * T + 0.5 * f * T2) / T5
-    return np.array([c0, c1, c2, c3, c4, c5])
+    rows = []
+    for q0, q1, qa, qe in zip(p0.tolist(), v0.tolist(), a0.tolist(), p1.tolist(), strict=True):
+        c2 = 0.5 * qa
+        d = qe - (q0 + q1 * T + c2 * T2)
+        e = -(q1 + 2 * c2 * T)
+        f = -(2 * c2)
+        rows.append((
+            q0, q1, c2,
+            (10 * d - 4 * e * T + 0.5 * f * T2) / T3,
+            (-15 * d + 7 * e * T - f * T2) / T4,
+            (6 * d - 3 * e * T + 0.5 * f * T2) / T5,
+        ))  # fmt: skip
+    return np.array(rows).T
 
 
 EDGE_CLEARANCE_M = 0.03  # over terrain, the sole passes every edge at least this high
@@ -210,13 +219,21 @@ class SwingTrajectory:
 
     def _horizontal(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         tau = min(max(t, self.t_seg), self.t_touch) - self.t_seg
-        c0, c1, c2, c3, c4, c5 = self.coeffs  # Horner on (3,) rows
-        p = c0 + tau * (c1 + tau * (c2 + tau * (c3 + tau * (c4 + tau * c5))))
-        v = c1 + tau * (2 * c2 + tau * (3 * c3 + tau * (4 * c4 + tau * 5 * c5)))
-        a = 2 * c2 + tau * (6 * c3 + tau * (12 * c4 + tau * 20 * c5))
         if t >= self.t_touch:
-            v, a = np.zeros(3), np.zeros(3)
-        return p, v, a
+            p = [c0 + tau * (c1 + tau * (c2 + tau * (c3 + tau * (c4 + tau * c5))))
+                 for c0, c1, c2, c3, c4, c5 in self._columns]  # fmt: skip
+            return np.array(p), np.zeros(3), np.zeros(3)
+        p, v, a = [], [], []
+        for c0, c1, c2, c3, c4, c5 in self._columns:  # Horner, per component in floats
+            p.append(c0 + tau * (c1 + tau * (c2 + tau * (c3 + tau * (c4 + tau * c5)))))
+            v.append(c1 + tau * (2 * c2 + tau * (3 * c3 + tau * (4 * c4 + tau * 5 * c5))))
+            a.append(2 * c2 + tau * (6 * c3 + tau * (12 * c4 + tau * 20 * c5)))
+        return np.array(p), np.array(v), np.array(a)
+
+    @functools.cached_property
+    def _columns(self) -> tuple[tuple[float, ...], ...]:
+        """The quintic's coefficients per component (x, y, yaw) as floats."""
+        return tuple(tuple(col) for col in self.coeffs.T.tolist())
 
     def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
         """Position, velocity, acceleration (3,), yaw and yaw rate at global time t."""

@@ -114,20 +114,21 @@ def clamp_to_reach(
     The adjustment relative to ``nominal`` is limited to ``max_adjustment`` (m), then the result is
     clipped to the reach box of the stance foot (no leg crossing, eq. 32 is kept where possible).
     """
-    p = np.array(step.position, dtype=float)
-    delta = p[:2] - nominal[:2]
-    n = float(np.hypot(*delta))
+    # in floats (2-vectors: numpy's per-call overhead would be most of the cost)
+    px, py = float(step.position[0]), float(step.position[1])
+    nx, ny, nz = float(nominal[0]), float(nominal[1]), float(nominal[2])
+    ddx, ddy = px - nx, py - ny
+    n = math.hypot(ddx, ddy)
     if n > max_adjustment:
-        delta *= max_adjustment / n if n > 0 else 0.0
-    p[:2] = nominal[:2] + delta
+        scale = max_adjustment / n if n > 0 else 0.0
+        ddx, ddy = ddx * scale, ddy * scale
+    px, py = nx + ddx, ny + ddy
     c, s = math.cos(stance.yaw), math.sin(stance.yaw)
-    d = p[:2] - stance.position[:2]
-    dx, dy = c * d[0] + s * d[1], -s * d[0] + c * d[1]
+    sx, sy = float(stance.position[0]), float(stance.position[1])
+    d0, d1 = px - sx, py - sy
+    dx, dy = c * d0 + s * d1, -s * d0 + c * d1
     sign = SIDE_SIGN[step.side]
     dx = min(max(dx, -spec.max_step_length_m), spec.max_step_length_m)
     lateral = min(max(sign * dy, spec.min_step_width_m), spec.max_step_width_m)
     dy = sign * lateral
-    p[0] = stance.position[0] + c * dx - s * dy
-    p[1] = stance.position[1] + s * dx + c * dy
-    p[2] = nominal[2]
-    return p
+    return np.array([sx + c * dx - s * dy, sy + s * dx + c * dy, nz])
