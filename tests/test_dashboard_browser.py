@@ -287,8 +287,10 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
     # the tab applied the camera once it reports both back (the orientation follows the look-at:
     # projecting with the position alone raced the turn when this test ran first)
     assert wait_for(
-        lambda: np.allclose(client.camera.position, position, atol=1e-3)
-        and np.allclose(client.camera.look_at, look_at, atol=1e-3)
+        lambda: (
+            np.allclose(client.camera.position, position, atol=1e-3)
+            and np.allclose(client.camera.look_at, look_at, atol=1e-3)
+        )
     )
     u, v = project(client.camera, com)
     box = page.locator("canvas").first.bounding_box()
