@@ -9,7 +9,9 @@ support while the CoP on the old stance foot brings the DCM back, and a short sw
 stepping-out foot recover far more (``dcmviz.recovery``, capacity).
 
 This module only builds and compares timings; the walker (``multi_step_timing``) picks among
-:func:`timing_candidates` the one whose recovery QP leaves the smallest CoP shortfall and moves
+:func:`timing_candidates` the one whose recovery QP leaves the smallest CoP shortfall, and
+whose supports until the footstep after next bears the weight can bring ξ onto that footstep
+(:func:`capture_shortfall`, the reachable DCM interval of :func:`reachable_dcm`), and moves
 the walked plan's durations towards it at most ``RATE`` s per s, so ξ_ref, ξ_adj and the VRP
 change continuously (a kink, never a jump) and the swing foot is re-timed from its present state
 (:meth:`~dcmviz.gait.swing.SwingTrajectory.retime`).  Limits: a single support lasts
@@ -31,7 +33,8 @@ from dcmviz.dcm.preview import PhaseSchedule
 from dcmviz.gait.plan import GaitPlan
 
 SS_SCALE = (1.0, 0.6)  # single support: nominal, short (the stepping-out foot hurries)
-DS_SCALE = (1.0, 0.5, 2.5, 5.0)  # double support: nominal, long (the CoP brings ξ back between the feet)
+# double support: nominal, short (the weight moves sooner), long (the CoP brings ξ back)
+DS_SCALE = (1.0, 0.5, 2.5, 5.0)
 MIN_SS_S = 0.35  # s, shortest single support (the swing must still lift and place the foot)
 MIN_DS_S = 0.1  # s, shortest double support (weight transfer)
 MIN_REMAINING_S = 0.12  # s, a single support under way ends no sooner than this from now
