@@ -468,8 +468,10 @@ class Walker:
     def _inside_support(self, v: np.ndarray, support: dict[str, bool]) -> np.ndarray:
         """The commanded VRP brought into the support polygon (the soles bearing weight, their
         hull in double support) by the projection that keeps its lateral part first (metric
-        LATERAL_PRIORITY² on the feet's lateral axis): no footstep can take a lateral error
-        towards the stance foot, a forward one the next footsteps can.  A VRP inside is kept."""
+        LATERAL_PRIORITY² on the feet's lateral axis) when it lies laterally beyond both feet:
+        no footstep can take a lateral error towards the stance foot, a forward one the next
+        footsteps can.  A VRP inside, or laterally between the feet, is kept (the backend's
+        support then decides, as for the paper's strategy)."""
         feet = [self.placed[s] for s in SIDES if support.get(s)]
         if not feet:
             return v
@@ -480,8 +482,12 @@ class Walker:
             [sole_corners(f.position, f.yaw, self.spec.foot_length_m, self.spec.foot_width_m)
              for f in feet]
         )  # fmt: skip
+        local_v = to_local @ v[:2]
+        lateral = [float(to_local[1] @ self.placed[x].position[:2]) for x in SIDES]
+        if min(lateral) <= local_v[1] <= max(lateral):  # between the feet: a step can take it
+            return v
         polygon = convex_hull(corners @ to_local.T)
-        p, d = project_to_polygon(to_local @ v[:2], polygon)
+        p, d = project_to_polygon(local_v, polygon)
         if d == 0.0:
             return v
         return np.array([*np.linalg.solve(to_local, np.asarray(p, float)), v[2]])
