@@ -354,9 +354,7 @@ class SimLoop:
             f_hat=tick.f_hat,
             pushes=tuple((p.body, p.point, p.force) for p in tick.pushes),
             adjusted_steps=tick.adjusted_steps(),
-            realised_steps=tuple(
-                Footstep(r.side, r.position, 0.0) for r in tick.realised_steps
-            ),
+            realised_steps=tuple(Footstep(r.side, r.position, 0.0) for r in tick.realised_steps),
             plan=tick.plan,
             plan_version=tick.plan_version,
             tick=tick,
