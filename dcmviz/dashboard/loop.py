@@ -19,6 +19,7 @@ import numpy as np
 
 from dcmviz.config import Config
 from dcmviz.gait import GaitPlan
+from dcmviz.heap import release_freed_memory
 from dcmviz.session import Session
 from dcmviz.state import Footstep
 from dcmviz.tick import Tick
@@ -303,6 +304,7 @@ class SimLoop:
         change = self.session.set_config(config, backend=config.sim.backend)
         if change.startswith("restarted") or change == "started":
             self._fallen_at = None
+            release_freed_memory()  # the replaced simulation's models and data
         if change:
             self.note = change
             self.note_seq += 1
@@ -352,9 +354,7 @@ class SimLoop:
             f_hat=tick.f_hat,
             pushes=tuple((p.body, p.point, p.force) for p in tick.pushes),
             adjusted_steps=tick.adjusted_steps(),
-            realised_steps=tuple(
-                Footstep(r.side, r.position, 0.0) for r in tick.realised_steps
-            ),
+            realised_steps=tuple(Footstep(r.side, r.position, 0.0) for r in tick.realised_steps),
             plan=tick.plan,
             plan_version=tick.plan_version,
             tick=tick,
