@@ -618,3 +618,48 @@ def test_a_frame_that_raises_does_not_end_the_drawing(dash: Dashboard) -> None:
         assert view.faults == 1 and view._thread.is_alive()
     finally:
         view.stop()
+
+
+def test_first_viewer_gets_the_walk_from_its_start_before_the_replay() -> None:
+    """Issue 14, the first minute: a tab that opens while the walk is under way (nobody else
+    watching) is sent the walk restarted and standing at its start — the scene viser replays to
+    it already holds the restarted robot and says "about to walk" (before, the replay showed
+    the old walk and the reset came seconds later, at the tab's first camera message: a visible
+    jump back).  The walk holds until the tab reports its camera, then goes on; a second tab
+    restarts nothing.  Real websocket clients speaking viser's protocol."""
+    from test_guard import CAMERA, decode
+    from websockets.sync.client import connect
+
+    from dcmviz.session import Session
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    config = Config().replace(sim={"backend": "lip"})
+    d = Dashboard(server, config, presets_dir=PRESETS)
+    url, protocol = f"ws://127.0.0.1:{server.get_port()}", f"viser-v{viser.__version__}"
+    try:
+        assert wait_for(lambda: d.loop.session.t > 1.5)  # walking, nobody watching
+        start_com = np.asarray(Session(config, backend="lip").last_state.com)  # independent
+        moved = np.asarray(d.loop.snapshot.com)
+        assert np.linalg.norm(moved[:2] - start_com[:2]) > 0.05  # (so a stale pose would show)
+        resets = d.loop.resets
+        with connect(url, subprotocols=[protocol], max_size=None) as ws:
+            replay: list[dict] = []
+            while not any(m["type"] == "ReplayDoneMessage" for m in replay):
+                replay.extend(decode(ws.recv(timeout=10)))
+            assert d.loop.resets == resets + 1 and d.loop.held and d.loop.session.t == 0.0
+            com = [m["position"] for m in replay
+                   if m["type"] == "SetPositionMessage" and m["name"] == "/sim/com"]  # fmt: skip
+            assert com and np.allclose(com[-1], start_com, atol=1e-3)  # the start, as replayed
+            status = [m["updates"]["_markdown"] for m in replay
+                      if m["type"] == "GuiUpdateMessage" and m.get("uuid") == d.gui_status._impl.uuid
+                      and "_markdown" in m["updates"]]  # fmt: skip
+            assert "t =   0.00 s" in status[-1] and "about to walk" in status[-1], status[-1]
+            ws.send(CAMERA)  # the tab's view is up: the walk starts
+            assert wait_for(lambda: not d.loop.held and d.loop.session.t > 0.2)
+            with connect(url, subprotocols=[protocol], max_size=None) as second:
+                second.send(CAMERA)
+                assert wait_for(lambda: len(server.get_clients()) == 2)
+                assert d.loop.resets == resets + 1 and not d.loop.held
+    finally:
+        d.stop()
+        server.stop()

@@ -82,6 +82,8 @@ class SimView:
         self.robot_view: RobotView | None = None
         self.fps = 0.0
         self.frames_drawn = 0
+        self.drawn: Snapshot | None = None  # the last snapshot drawn into the scene
+        self._drawn_changed = threading.Condition()
         self._markers: dict[str, viser.SceneNodeHandle] = {}
         self._arrow_handles: dict[str, viser.ArrowsHandle] = {}
         self._steps_drawn: dict[str, tuple] = {}  # "adjusted"/"realised" → what is drawn
@@ -100,6 +102,16 @@ class SimView:
         if self._thread.is_alive():
             self._thread.join(timeout=5.0)
 
+    def running(self) -> bool:
+        return self._thread.is_alive()
+
+    def wait_drawn(self, condition: Callable[[Snapshot], bool], timeout: float) -> bool:
+        """Wait until a snapshot for which ``condition`` holds has been drawn into the scene."""
+        with self._drawn_changed:
+            return self._drawn_changed.wait_for(
+                lambda: self.drawn is not None and condition(self.drawn), timeout
+            )
+
     def _run(self) -> None:
         period = 1.0 / RENDER_FPS
         last: Snapshot | None = None
@@ -107,13 +119,15 @@ class SimView:
         last_plot = 0.0
         last_history = None
         last_follow = 0.0
+        last_status_key = (-1, False)  # a reset or a hold is shown at once
         frames, fps_t0 = 0, time.perf_counter()
         next_frame = fps_t0
         while not self._stop.is_set():
             t0 = time.perf_counter()
             snap = self.loop.snapshot
             try:
-                if snap is not last:
+                new = snap is not last
+                if new:
                     self.draw_snapshot(snap, last)
                     if (
                         snap.history is not last_history
@@ -133,9 +147,18 @@ class SimView:
                     if self.on_follow is not None:
                         self.on_follow(here)
                     last_follow = t0
-                if t0 - last_status >= STATUS_DT_S or self.status.is_new(snap):
+                if (
+                    t0 - last_status >= STATUS_DT_S
+                    or self.status.is_new(snap)
+                    or (snap.resets, snap.held) != last_status_key
+                ):
+                    last_status_key = (snap.resets, snap.held)
                     self._show_status(snap, t0)
                     last_status = t0
+                if new:  # the scene and the status line show it
+                    with self._drawn_changed:
+                        self.drawn = snap
+                        self._drawn_changed.notify_all()
             except Exception as err:  # noqa: BLE001 - no frame may end the drawing for every tab
                 # (seen: viser's message buffer raising "deque mutated during iteration" while
                 # a plot was sent); the next frame draws again
