@@ -96,6 +96,9 @@ def traffic(
         time.sleep(3.0)
     rtf, fps, cpu = measure_rtf(dashboard, seconds, reset=False)
     counts = json.loads(proc.communicate(timeout=60)[0]) if proc else []
+    for c in counts:  # per scene frame drawn: the same whatever else loads the machine
+        c["messages_per_frame"] = c["messages_per_s"] / max(fps, 1e-9)
+        c["render_fps"] = fps
     return counts, rtf
 
 
@@ -108,7 +111,9 @@ def print_traffic(label: str, counts: list[dict], rtf: float, top: bool = False)
     print(
         f"{label}: real-time factor {rtf:.2f}; per client {np.mean(msgs):.0f} messages/s "
         f"({min(msgs):.0f}–{max(msgs):.0f}), {np.mean(kib):.1f} KiB/s, "
-        f"{np.mean([c['frames_per_s'] for c in counts]):.0f} frames/s"
+        f"{np.mean([c['frames_per_s'] for c in counts]):.0f} websocket frames/s; scene drawn at "
+        f"{counts[0]['render_fps']:.1f} fps: {np.mean([c['messages_per_frame'] for c in counts]):.1f} "
+        "messages per drawn frame"
     )
     if top:
         for key, k in counts[0]["top"]:
