@@ -15,7 +15,6 @@ No viser and no rerun here: each shell draws the same meshes with its own public
 
 from __future__ import annotations
 
-import ctypes
 import os
 import threading
 from collections.abc import Mapping
@@ -27,6 +26,7 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 from dcmviz.backend import RobotPose
+from dcmviz.heap import release_freed_memory
 from dcmviz.sim.robots import robot_source, robots_dir
 
 
@@ -133,7 +133,7 @@ class RobotVisual:
         # not kept: its BVH copy of every mesh (coal, native memory) holds ~50 MB for Talos and
         # ~200 MB for G1, and a visual lives as long as the process.
         self._joints, self._placements = joints, placements
-        _release_freed_memory()
+        release_freed_memory()
         self._data = self.model.createData()
         self._lock = threading.Lock()  # the dashboard and a recorder may pose from two threads
         nominal = robot_source(model_name).nominal
@@ -181,15 +181,6 @@ class RobotVisual:
         T = T @ self._placements  # oMg = oMi[joint] · placement
         xyzw = Rotation.from_matrix(T[:, :3, :3]).as_quat()
         return MeshPoses(position=T[:, :3, 3].copy(), wxyz=np.roll(xyzw, 1, axis=1))
-
-
-def _release_freed_memory() -> None:
-    """Give the heap freed after loading the meshes back to the system (glibc's malloc_trim;
-    elsewhere nothing): otherwise the load's peak stays in the process's RSS."""
-    try:
-        ctypes.CDLL(None).malloc_trim(0)
-    except (AttributeError, OSError):
-        pass
 
 
 _VISUALS: dict[str, RobotVisual] = {}

@@ -19,6 +19,7 @@ import numpy as np
 
 from dcmviz.config import Config
 from dcmviz.gait import GaitPlan
+from dcmviz.heap import release_freed_memory
 from dcmviz.session import Session
 from dcmviz.state import Footstep
 from dcmviz.tick import Tick
@@ -313,6 +314,7 @@ class SimLoop:
         change = self.session.set_config(config, backend=config.sim.backend)
         if change.startswith("restarted") or change == "started":
             self._fallen_at = None
+            release_freed_memory()  # the replaced simulation's models and data
         if change:
             self.note = change
             self.note_seq += 1

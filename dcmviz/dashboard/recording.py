@@ -13,6 +13,7 @@ import viser
 from dcmviz.dashboard.loop import SimLoop
 from dcmviz.dashboard.notify import Notifier
 from dcmviz.dashboard.presets import slug
+from dcmviz.heap import release_freed_memory
 from dcmviz.record import Recorder
 
 
@@ -108,4 +109,5 @@ class RecordingPanel:
         if client is not None:
             client.send_file_download(path.name, data, save_immediately=True)
         self.notifier.notify(client, "Recording ready", f"{path.name}: {recorder.samples} samples")
+        release_freed_memory()  # the recorder's buffers (the .rrd is several MB)
         return data
