@@ -25,7 +25,7 @@ from dcmviz.dashboard import scene as draw
 
 AIM_COLOR = (255, 110, 0)
 AIM_TURN_DEG = 2.0  # a view that turned less than this keeps its arrow
-AIM_MOVE_M = 0.02  # the arrow follows the robot when it moved more than this
+AIM_MOVE_M = 0.05  # the arrow follows the robot when it moved more than this
 AIM_STANDOFF_M = 0.3  # the arrow's head stops this far before the point under the robot
 AIM_MAX_LENGTH_M = 1.0  # longer arrows (above 100 N) are drawn this long; the label says |F|
 AIM_LIFT_M = 0.015  # above the ground (over the footstep markers)
