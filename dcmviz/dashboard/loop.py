@@ -108,6 +108,8 @@ class SimLoop:
         self._last_history = 0.0
         self._pending_config: Any = None  # (version, Config) waiting for CONFIG_MIN_INTERVAL_S
         self._config_at = -float("inf")  # perf_counter of the last adopted config
+        # the realised footsteps as drawn, rebuilt only when a foot lands (not at every publish)
+        self._realised: tuple[tuple, tuple[Footstep, ...]] = ((), ())
         self._publish()
 
     # -- commands (any thread) --------------------------------------------------------------------
@@ -354,14 +356,21 @@ class SimLoop:
             f_hat=tick.f_hat,
             pushes=tuple((p.body, p.point, p.force) for p in tick.pushes),
             adjusted_steps=tick.adjusted_steps(),
-            realised_steps=tuple(
-                Footstep(r.side, r.position, 0.0) for r in tick.realised_steps
-            ),
+            realised_steps=self._realised_steps(tick.realised_steps),
             plan=tick.plan,
             plan_version=tick.plan_version,
             tick=tick,
             **common,
         )
+
+    def _realised_steps(self, records: tuple) -> tuple[Footstep, ...]:
+        """``records`` as Footsteps, built again only when they changed (a landing or a reset
+        adds or replaces the last record): ~160 µs for 64 records, was paid at every publish."""
+        seen, steps = self._realised
+        if len(records) != len(seen) or (records and records[-1] is not seen[-1]):
+            steps = tuple(Footstep(r.side, r.position, 0.0) for r in records)
+            self._realised = (records, steps)
+        return steps
 
     @staticmethod
     def _history_window(session: Session) -> dict[str, np.ndarray]:
