@@ -20,11 +20,18 @@ import pytest
 viser = pytest.importorskip("viser")
 websockets = pytest.importorskip("websockets")
 
-from test_guard import CAMERA, decode, free_port, tab, update, uuid_of, wait_for  # noqa: E402
+import helpers  # noqa: E402
+from test_guard import CAMERA, decode, free_port, tab, update, uuid_of  # noqa: E402
 
 from dcmviz.config import Config  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
 from dcmviz.session import Session  # noqa: E402
+
+
+def wait_for(condition, timeout: float = 20.0) -> bool:
+    """Wait on the condition, long enough for a loaded machine (the suite shares 2 cores with
+    other jobs: a 5 s bound expired once on a fault notification under a load average of 7)."""
+    return helpers.wait_for(condition, max(timeout, 20.0))
 
 
 class Tab:
