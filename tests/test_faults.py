@@ -150,6 +150,7 @@ def still_working(d: Dashboard, port: int, *tabs: Tab) -> None:
 def test_backend_fault_resets_the_walk_and_is_shown_once(running, kind) -> None:
     d, injector, port = running
     tabs = [Tab(port), Tab(port)]
+    assert wait_for(lambda: len(d.server.get_clients()) == 2)  # both receive every pop-up
     try:
         titles = {"Simulation fault"}
         for n in (1, 2):
@@ -172,6 +173,7 @@ def test_backend_fault_resets_the_walk_and_is_shown_once(running, kind) -> None:
 def test_fall_is_shown_once_with_its_likely_cause(running) -> None:
     d, _, port = running
     tabs = [Tab(port), Tab(port)]
+    assert wait_for(lambda: len(d.server.get_clients()) == 2)  # both receive every pop-up
     try:
         for n in (1, 2):
             assert wait_for(lambda: not d.loop.snapshot.fallen and d.loop.session.t > 0.5)
@@ -194,6 +196,7 @@ def test_fall_cause_names_the_plan_warning(running) -> None:
     """A plan the checker warns about: the fall names the warning (the likely cause)."""
     d, _, port = running
     tab_ = Tab(port)
+    assert wait_for(lambda: len(d.server.get_clients()) == 1)
     try:
         assert d.editor.on_field_change("gait", "t_start", 0.2)  # D2 outside the support
         assert wait_for(
@@ -211,6 +214,7 @@ def test_fall_cause_names_the_plan_warning(running) -> None:
 def test_exception_in_a_callback_is_told_and_changes_nothing(running, monkeypatch) -> None:
     d, _, port = running
     tabs = [Tab(port), Tab(port)]
+    assert wait_for(lambda: len(d.server.get_clients()) == 2)  # both receive every pop-up
     try:
         n = d.controls.handles[("gait", "n_steps")]
 
@@ -235,6 +239,7 @@ def test_exception_in_the_recorder_stops_the_recording_not_the_walk(running, mon
 
     d, _, port = running
     tabs = [Tab(port)]
+    assert wait_for(lambda: len(d.server.get_clients()) == 1)
     try:
         calls = []
 
@@ -260,6 +265,7 @@ def test_exception_in_the_recorder_stops_the_recording_not_the_walk(running, mon
 def test_faults_leave_memory_where_it_was(running) -> None:
     d, injector, port = running
     tab_ = Tab(port)
+    assert wait_for(lambda: len(d.server.get_clients()) == 1)
     try:
 
         def faults(count: int) -> None:
