@@ -62,6 +62,7 @@ STEP_COST_WEIGHT = 1e-3  # timing score: Σ ω |Δv|² (m²) against σ² (m²) 
 TIMING_COST_WEIGHT = 1e-3  # ... and Σ (T − T_nominal)² (s²)
 CAPTURE_WEIGHT = 1.0  # timing score: the capture shortfall² (m²) against σ² (m²)
 LATERAL_PRIORITY = 4.0  # a VRP outside the support keeps its lateral part first (_inside_support)
+PRIORITY_BLEND_M = 0.03  # ... blended in over this far beyond the outer foot
 TIMING_HYSTERESIS = 0.8  # a new target timing must score below this fraction of the kept one
 HORIZON_STEPS = 4  # continuous mode: at least this many footsteps previewed ahead
 HORIZON_TIME_CONSTANTS = 15.0  # ... and at least 15 b of walking before the terminal constraint
@@ -484,13 +485,17 @@ class Walker:
         )  # fmt: skip
         local_v = to_local @ v[:2]
         lateral = [float(to_local[1] @ self.placed[x].position[:2]) for x in SIDES]
-        if min(lateral) <= local_v[1] <= max(lateral):  # between the feet: a step can take it
+        beyond = max(min(lateral) - local_v[1], local_v[1] - max(lateral), 0.0)
+        if beyond == 0.0:  # between the feet: a step can take it
             return v
         polygon = convex_hull(corners @ to_local.T)
         p, d = project_to_polygon(local_v, polygon)
         if d == 0.0:
             return v
-        return np.array([*np.linalg.solve(to_local, np.asarray(p, float)), v[2]])
+        # blended in over PRIORITY_BLEND_M beyond the outer foot: continuous in v
+        alpha = min(beyond / (LATERAL_PRIORITY * PRIORITY_BLEND_M), 1.0)  # beyond: scaled
+        moved = np.linalg.solve(to_local, np.asarray(p, float)) - v[:2]
+        return np.array([*(v[:2] + alpha * moved), v[2]])
 
     def _instant(self, k: int, plan: GaitPlan | None = None) -> float:
         """Global time of footstep k's adjustment instant (eq. 31): the start of its first
