@@ -2,7 +2,7 @@
 
     PYTHONPATH=. python3 bench/dashboard.py [--preset presets/walk_forward.toml] [--seconds 10]
                                             [--clients 0,1,5] [--tabs 5] [--latency]
-                                            [--screenshot docs/dashboard.png]
+                                            [--screenshot PNG] [--first-view docs/dashboard.png]
 
 0. Traffic and real time with 0, 1, 5 websocket clients that do not render
    (``bench/wsclients.py`` in its own process): messages/s and KiB/s per client, the busiest
@@ -15,6 +15,9 @@
 2. Real-time factor of the simulation (simulated / wall seconds) with the browser connected
    (target ≥ 1), and the frame rate of the scene updates (target ≥ 30 fps).
 3. Optionally a screenshot of the dashboard with the robot walking and the preview drawn.
+4. ``--first-view PNG``: what a newcomer sees (the README's picture): ``python app.py``'s
+   dashboard, a fresh 1400 × 800 tab opened on it, photographed a few seconds into the walk
+   (headless Chromium's "software WebGL" notice closed: a browser with a GPU shows none).
 """
 
 from __future__ import annotations
@@ -93,6 +96,9 @@ def traffic(
         time.sleep(3.0)
     rtf, fps, cpu = measure_rtf(dashboard, seconds, reset=False)
     counts = json.loads(proc.communicate(timeout=60)[0]) if proc else []
+    for c in counts:  # per scene frame drawn: the same whatever else loads the machine
+        c["messages_per_frame"] = c["messages_per_s"] / max(fps, 1e-9)
+        c["render_fps"] = fps
     return counts, rtf
 
 
@@ -105,7 +111,9 @@ def print_traffic(label: str, counts: list[dict], rtf: float, top: bool = False)
     print(
         f"{label}: real-time factor {rtf:.2f}; per client {np.mean(msgs):.0f} messages/s "
         f"({min(msgs):.0f}–{max(msgs):.0f}), {np.mean(kib):.1f} KiB/s, "
-        f"{np.mean([c['frames_per_s'] for c in counts]):.0f} frames/s"
+        f"{np.mean([c['frames_per_s'] for c in counts]):.0f} websocket frames/s; scene drawn at "
+        f"{counts[0]['render_fps']:.1f} fps: {np.mean([c['messages_per_frame'] for c in counts]):.1f} "
+        "messages per drawn frame"
     )
     if top:
         for key, k in counts[0]["top"]:
@@ -190,6 +198,7 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=10.0)
     parser.add_argument("--screenshot", default=None, help="PNG path for a dashboard screenshot")
     parser.add_argument("--no-measure", action="store_true", help="only take the screenshot")
+    parser.add_argument("--first-view", default=None, help="PNG path: a newcomer's first view")
     parser.add_argument("--clients", default="0,1,5", help="websocket client counts to measure")
     parser.add_argument("--tabs", type=int, default=0, help="headless Chromium tabs to measure")
     parser.add_argument("--nice-browsers", type=int, default=0,
@@ -198,6 +207,9 @@ def main() -> None:
     parser.add_argument("--drag", action="store_true", help="real time while sliders are dragged")
     parser.add_argument("--sweep", action="store_true", help="real time during a Sweep-tab sweep")
     args = parser.parse_args()
+    if args.first_view:
+        first_view(Path(args.first_view), Path(args.preset))
+        return
     if not args.latency and not args.screenshot:
         config = load_preset(args.preset)
         server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
@@ -288,6 +300,38 @@ def main() -> None:
 
         if args.screenshot:
             take_screenshot(page, dashboard, Path(args.screenshot))
+        browser.close()
+    dashboard.stop()
+    server.stop()
+
+
+def first_view(path: Path, preset: Path, walked_s: float = 3.0) -> None:
+    """The dashboard as ``python app.py`` starts it, running for a while before a tab opens;
+    the tab is photographed once the walk it was sent has gone on ``walked_s`` seconds."""
+    from playwright.sync_api import sync_playwright
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    dashboard = Dashboard(server, load_preset(preset), presets_dir=ROOT / "presets",
+                          preset=preset.stem)  # fmt: skip
+    time.sleep(5.0)  # the server ran before anyone looked
+    with sync_playwright() as p:
+        browser = launch_chromium(p)
+        page = browser.new_page(viewport={"width": 1400, "height": 800})
+        resets = dashboard.loop.resets
+        page.goto(f"http://127.0.0.1:{server.get_port()}")
+        page.get_by_text("T_ss [s]").wait_for(timeout=60_000)
+        for button in page.locator("button.mantine-Notification-closeButton").all():
+            button.click()
+        loop = dashboard.loop
+        deadline = time.time() + 60
+        while (loop.resets == resets or loop.held or loop.session.t < walked_s) and (
+            time.time() < deadline
+        ):
+            time.sleep(0.01)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(path))
+        print(f"first view: {path} (restarts {loop.resets - resets}, asked at t = {walked_s} s, "
+              f"now t = {loop.session.t:.2f} s, falls {loop.falls})")  # fmt: skip
         browser.close()
     dashboard.stop()
     server.stop()

@@ -49,7 +49,7 @@ from dcmviz.gait import (
 )
 from dcmviz.recovery import Candidate
 from dcmviz.robots import get_spec
-from dcmviz.robots.geometry import sole_corners
+from dcmviz.robots.geometry import convex_hull, project_to_polygon, sole_corners
 from dcmviz.state import SIDES, FootTarget, MeasuredState, WalkerCommand
 from dcmviz.terrain import EDGE_MARGIN_M, terrain_of
 
@@ -60,6 +60,9 @@ QUIET_SLACK_M = 1e-4  # m: below this shortfall a nominal timing is not question
 RETIME_PERIOD_S = 0.03  # s between comparisons of candidate timings (multi_step_timing)
 STEP_COST_WEIGHT = 1e-3  # timing score: Σ ω |Δv|² (m²) against σ² (m²) ...
 TIMING_COST_WEIGHT = 1e-3  # ... and Σ (T − T_nominal)² (s²)
+CAPTURE_WEIGHT = 1.0  # timing score: the capture shortfall² (m²) against σ² (m²)
+LATERAL_PRIORITY = 4.0  # a VRP outside the support keeps its lateral part first (_inside_support)
+PRIORITY_BLEND_M = 0.03  # ... blended in over this far beyond the outer foot
 TIMING_HYSTERESIS = 0.8  # a new target timing must score below this fraction of the kept one
 HORIZON_STEPS = 4  # continuous mode: at least this many footsteps previewed ahead
 HORIZON_TIME_CONSTANTS = 15.0  # ... and at least 15 b of walking before the terminal constraint
@@ -215,6 +218,8 @@ class Walker:
             self.adjusted_target, self.recovery_target = None, None
 
         v_cmd = vrp_tracking(v_ref, xi, xi_adj, cfg.k_xi, b)  # eq. (41) (eq. 24 if ξ_adj = ξ_ref)
+        if cfg.step_adjustment and cfg.recovery != "next_step":  # issue 11: keep the lateral CoP
+            v_cmd = self._inside_support(v_cmd, contact.support)
         force = com_force(state.com, v_cmd, m, b)  # eq. (4)
         contact_force = force + self._weight - f_hat
         self._last_contact_force = contact_force
@@ -404,8 +409,10 @@ class Walker:
                 p = timing.retimed(plan, durations)
                 error = xi - (p.preview.dcm(local) + shift)
                 solution, _ = self._solve_multi(p, t, local, k, error)
+                short = self._capture_shortfall(p, t, k, xi[:2], solution.dv)
                 score = (
                     float(solution.slack @ solution.slack)
+                    + CAPTURE_WEIGHT * float(short @ short)
                     + STEP_COST_WEIGHT * solution.step_cost
                     + TIMING_COST_WEIGHT * float(np.sum((durations - nominal) ** 2))
                 )
@@ -430,6 +437,65 @@ class Walker:
             t_touch = self.plan.swing_window(self.swing_step)[1]
             self.swing = self.swing.retime(t, t_touch)
         return True
+
+    def _capture_shortfall(
+        self, plan: GaitPlan, t: float, k: int, xi: np.ndarray, dvs: list[np.ndarray]
+    ) -> np.ndarray:
+        """How far from capturable ``plan``'s timing leaves ξ (timing.capture_shortfall): the
+        supports from now until footstep k+1's foot takes the weight (the end of the double
+        support after it lands; the stance sole, then both soles, …, with footsteps k, k+1 where
+        the QP puts them), the region being footstep k+1's sole: the foot after it cannot cross
+        to the side it stands on.  Without a footstep k+1: footstep k's sole at its touchdown."""
+        feet = {s: self.placed[s] for s in SIDES}
+        landed = [plan.steps[j].moved(plan.steps[j].position + dvs[j - k])
+                  for j in range(k, min(k + 2, len(plan.steps)))]  # fmt: skip
+        segments = []
+        now = t
+        for j, step in enumerate(landed, start=k):
+            t_lift, t_touch = plan.swing_window(j)
+            if now < t_lift:  # double support before the swing: both feet
+                segments.append((t_lift - now, *self._sole_box([feet[x] for x in SIDES])))
+                now = t_lift
+            stance = feet[OTHER[step.side]]
+            segments.append((max(t_touch - now, 0.0), *self._sole_box([stance])))
+            now = max(now, t_touch)
+            feet[step.side] = step
+        if len(landed) == 2 and k + 2 < len(plan.steps):
+            t_lift = plan.swing_window(k + 2)[0]
+            segments.append((max(t_lift - now, 0.0), *self._sole_box([feet[x] for x in SIDES])))
+        region = self._sole_box([landed[-1]])
+        return timing.capture_shortfall(xi, segments, region, self.b)
+
+    def _inside_support(self, v: np.ndarray, support: dict[str, bool]) -> np.ndarray:
+        """The commanded VRP brought into the support polygon (the soles bearing weight, their
+        hull in double support) by the projection that keeps its lateral part first (metric
+        LATERAL_PRIORITY² on the feet's lateral axis) when it lies laterally beyond both feet:
+        no footstep can take a lateral error towards the stance foot, a forward one the next
+        footsteps can.  A VRP inside, or laterally between the feet, is kept (the backend's
+        support then decides, as for the paper's strategy)."""
+        feet = [self.placed[s] for s in SIDES if support.get(s)]
+        if not feet:
+            return v
+        yaw = math.atan2(sum(math.sin(f.yaw) for f in feet), sum(math.cos(f.yaw) for f in feet))
+        c, s_ = math.cos(yaw), math.sin(yaw)
+        to_local = np.array([[c, s_], [-s_ * LATERAL_PRIORITY, c * LATERAL_PRIORITY]])
+        corners = np.vstack(
+            [sole_corners(f.position, f.yaw, self.spec.foot_length_m, self.spec.foot_width_m)
+             for f in feet]
+        )  # fmt: skip
+        local_v = to_local @ v[:2]
+        lateral = [float(to_local[1] @ self.placed[x].position[:2]) for x in SIDES]
+        beyond = max(min(lateral) - local_v[1], local_v[1] - max(lateral), 0.0)
+        if beyond == 0.0:  # between the feet: a step can take it
+            return v
+        polygon = convex_hull(corners @ to_local.T)
+        p, d = project_to_polygon(local_v, polygon)
+        if d == 0.0:
+            return v
+        # blended in over PRIORITY_BLEND_M beyond the outer foot: continuous in v
+        alpha = min(beyond / (LATERAL_PRIORITY * PRIORITY_BLEND_M), 1.0)  # beyond: scaled
+        moved = np.linalg.solve(to_local, np.asarray(p, float)) - v[:2]
+        return np.array([*(v[:2] + alpha * moved), v[2]])
 
     def _instant(self, k: int, plan: GaitPlan | None = None) -> float:
         """Global time of footstep k's adjustment instant (eq. 31): the start of its first

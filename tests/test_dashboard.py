@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -618,3 +619,109 @@ def test_a_frame_that_raises_does_not_end_the_drawing(dash: Dashboard) -> None:
         assert view.faults == 1 and view._thread.is_alive()
     finally:
         view.stop()
+
+
+def test_first_viewer_gets_the_walk_from_its_start_before_the_replay() -> None:
+    """Issue 14, the first minute: a tab that opens while the walk is under way (nobody else
+    watching) is sent the walk restarted and standing at its start — the scene viser replays to
+    it already holds the restarted robot and says "about to walk" (before, the replay showed
+    the old walk and the reset came seconds later, at the tab's first camera message: a visible
+    jump back).  The walk holds until the tab reports its camera, then goes on; a second tab
+    restarts nothing.  Real websocket clients speaking viser's protocol."""
+    from test_guard import CAMERA, decode
+    from websockets.sync.client import connect
+
+    from dcmviz.session import Session
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    config = Config().replace(sim={"backend": "lip"})
+    d = Dashboard(server, config, presets_dir=PRESETS)
+    url, protocol = f"ws://127.0.0.1:{server.get_port()}", f"viser-v{viser.__version__}"
+    try:
+        assert wait_for(lambda: d.loop.session.t > 1.5)  # walking, nobody watching
+        start_com = np.asarray(Session(config, backend="lip").last_state.com)  # independent
+        moved = np.asarray(d.loop.snapshot.com)
+        assert np.linalg.norm(moved[:2] - start_com[:2]) > 0.05  # (so a stale pose would show)
+        resets = d.loop.resets
+        with connect(url, subprotocols=[protocol], max_size=None) as ws:
+            replay: list[dict] = []
+            while not any(m["type"] == "ReplayDoneMessage" for m in replay):
+                replay.extend(decode(ws.recv(timeout=10)))
+            assert d.loop.resets == resets + 1 and d.loop.held and d.loop.session.t == 0.0
+            com = [m["position"] for m in replay
+                   if m["type"] == "SetPositionMessage" and m["name"] == "/sim/com"]  # fmt: skip
+            assert com and np.allclose(com[-1], start_com, atol=1e-3)  # the start, as replayed
+            status = [m["updates"]["_markdown"] for m in replay
+                      if m["type"] == "GuiUpdateMessage" and m.get("uuid") == d.gui_status._impl.uuid
+                      and "_markdown" in m["updates"]]  # fmt: skip
+            assert "t =   0.00 s" in status[-1] and "about to walk" in status[-1], status[-1]
+            ws.send(CAMERA)  # the tab's view is up: the walk starts
+            assert wait_for(lambda: not d.loop.held and d.loop.session.t > 0.2)
+            with connect(url, subprotocols=[protocol], max_size=None) as second:
+                second.send(CAMERA)
+                assert wait_for(lambda: len(server.get_clients()) == 2)
+                assert d.loop.resets == resets + 1 and not d.loop.held
+    finally:
+        d.stop()
+        server.stop()
+
+
+def test_a_tab_is_sent_only_what_changed_each_frame() -> None:
+    """Issue 14, many viewers: counted by a real websocket client over a window of drawn frames
+    of a walk (point mass, no push): ξ, ξ_adj and the commanded VRP cost at most one message per
+    frame together, the ball and its leg one each, and everything else (status line, plots,
+    the tab's aim arrow, realised footsteps) a few per second; no ghost footstep is sent
+    without a push and no node is created again except the realised footsteps, once per
+    landing."""
+    from test_guard import CAMERA, decode
+    from websockets.sync.client import connect
+
+    from dcmviz.dashboard.render import RENDER_FPS, STATUS_DT_S
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    d = Dashboard(server, Config().replace(sim={"backend": "lip"}), presets_dir=PRESETS)
+    url, protocol = f"ws://127.0.0.1:{server.get_port()}", f"viser-v{viser.__version__}"
+    try:
+        received: list[dict] = []
+        with connect(url, subprotocols=[protocol], max_size=None) as ws:
+
+            def read() -> None:  # the tab reads all the while, like a browser
+                try:
+                    while True:
+                        received.extend(decode(ws.recv()))
+                except Exception:  # noqa: BLE001 - closed at the end
+                    pass
+
+            reader = threading.Thread(target=read, daemon=True)
+            reader.start()
+            ws.send(CAMERA)
+            assert wait_for(lambda: not d.loop.held and d.loop.session.t > 1.2)  # stepping
+            i0, frames0 = len(received), d.view.frames_drawn
+            landed0 = len(d.loop.snapshot.realised_steps)
+            assert wait_for(lambda: d.view.frames_drawn - frames0 >= 90)
+            messages = received[i0:]
+            frames = d.view.frames_drawn - frames0 + 3  # (frames in flight at either end)
+            landed = len(d.loop.snapshot.realised_steps) - landed0
+        assert d.loop.session.t > 1.2  # (the window did not span a loop of the plan)
+        by = {}
+        for m in messages:
+            key = (m["type"], m.get("name") or m.get("uuid"))
+            by[key] = by.get(key, 0) + 1
+        dots = by.get(("SceneNodeUpdateMessage", "/sim/dots"), 0)
+        assert 0.5 * (frames - 3) < dots <= frames  # it moves, at most once per frame
+        assert by.get(("SetPositionMessage", "/sim/com"), 0) <= frames
+        assert by.get(("SceneNodeUpdateMessage", "/sim/lip_leg"), 0) <= frames
+        status = by.get(("GuiUpdateMessage", d.gui_status._impl.uuid), 0)
+        assert status <= frames / (RENDER_FPS * STATUS_DT_S) + 2
+        created = [k for k in by if k[0].endswith("Message") and k[0] not in (
+            "SceneNodeUpdateMessage", "SetPositionMessage", "SetOrientationMessage",
+            "SetSceneNodeVisibilityMessage", "GuiUpdateMessage",
+        )]  # fmt: skip
+        assert {name for _, name in created} <= {"/sim/realised"}, created
+        assert by.get(("MeshMessage", "/sim/realised"), 0) <= landed + 1
+        per_frame = len(messages) / frames
+        # the ball, its leg and the dots (≤ 3), plus the rest
+        assert per_frame <= 3.5, sorted(by.items(), key=lambda kv: -kv[1])[:8]
+    finally:
+        d.stop()
+        server.stop()

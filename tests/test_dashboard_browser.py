@@ -335,7 +335,7 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
 
     def orange() -> bool:
         px = pixels_of(page, arrow_clip).reshape(-1, 3)
-        return bool(((px[:, 0] > 180) & (px[:, 1] > 70) & (px[:, 1] < 180) & (px[:, 2] < 90)).any())
+        return bool(((px[:, 0] > 180) & (px[:, 1] > 40) & (px[:, 1] < 170) & (px[:, 2] < 90)).any())
 
     assert wait_for(orange, timeout=15)
     n, clicks = len(dashboard.loop.session.pushes), dashboard.push_panel.clicks

@@ -204,7 +204,9 @@ def test_out_of_reach_and_too_narrow_steps_name_the_footstep_and_limit():
     plan, config = _plan_with(steps)
     # (the 0.5 m stride also lowers the CoM: that warning names dcm.b, tested in test_height.py)
     warnings = [
-        w for w in check_plan(plan, TALOS, config) if "swings" not in str(w) and w.setting != "dcm.b"
+        w
+        for w in check_plan(plan, TALOS, config)
+        if "swings" not in str(w) and w.setting != "dcm.b"
     ]
     # footstep 6 is too close and its sole overlaps, and so is footstep 7 next to it
     reach, narrow, overlap = warnings[:3]

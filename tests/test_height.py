@@ -35,7 +35,9 @@ def _posture(robot, straighten: float, theta: float) -> tuple[float, float]:
     pm = robot.pin_model
     q = robot.q_nominal.copy()
     for side, sign in (("left", 1.0), ("right", -1.0)):
-        hip, knee, ankle = (pm.joints[pm.getJointId(n.format(s=side))].idx_q for n in PITCH[robot.name])
+        hip, knee, ankle = (
+            pm.joints[pm.getJointId(n.format(s=side))].idx_q for n in PITCH[robot.name]
+        )
         q[knee] -= straighten
         q[hip] += 0.5 * straighten - sign * theta
         q[ankle] += 0.5 * straighten + sign * theta

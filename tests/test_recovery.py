@@ -222,3 +222,100 @@ def test_step_timing_walks_nominal_undisturbed_and_catches_a_push_towards_the_st
     # cannot cross the stance leg; a short in-place step and a quick wide one can
     assert not _survives("next_step", 34.0, 90.0)
     assert _survives("multi_step_timing", 34.0, 90.0)
+
+
+# -- capture shortfall, priority projection (issue 11, third part) ------------------------------
+
+
+def _integrate_dcm(xi0: np.ndarray, vrp, duration: float, n: int = 4000) -> np.ndarray:
+    """RK4 of ξ̇ = (ξ − v(t))/b with b = 0.3 (eq. 2), independent of the closed forms."""
+    b, h = 0.3, duration / n
+    xi = np.asarray(xi0, float).copy()
+    for i in range(n):
+        t = i * h
+        f = lambda s, x: (x - vrp(s)) / b  # noqa: E731
+        k1 = f(t, xi)
+        k2 = f(t + h / 2, xi + h / 2 * k1)
+        k3 = f(t + h / 2, xi + h / 2 * k2)
+        k4 = f(t + h, xi + h * k3)
+        xi = xi + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return xi
+
+
+def test_reachable_dcm_is_what_the_extreme_cops_reach() -> None:
+    """The interval ends of timing.reachable_dcm are the DCMs that the CoP held at the supports'
+    opposite edges reaches (numerical integration), and no CoP inside the supports, however it
+    switches, leaves the interval (random piecewise-constant CoPs)."""
+    b = 0.3
+    xi0 = np.array([0.10, 0.14])
+    segs = [
+        (0.15, np.array([0.5, 0.02]), np.array([0.7, 0.15])),  # the rest of a single support
+        (0.1, np.array([0.5, -0.12]), np.array([0.9, 0.15])),  # double support
+        (0.35, np.array([0.69, -0.12]), np.array([0.9, 0.01])),  # the other foot's support
+    ]
+    lo, hi = timing.reachable_dcm(xi0, segs, b)
+
+    def through(pieces) -> np.ndarray:  # integrated piece by piece (the CoP jumps between)
+        xi = xi0
+        for duration, cop in pieces:
+            xi = _integrate_dcm(xi, lambda _t, cop=cop: cop, duration, n=400)
+        return xi
+
+    np.testing.assert_allclose(lo, through([(d, top) for d, _, top in segs]), atol=1e-9)
+    np.testing.assert_allclose(hi, through([(d, low) for d, low, _ in segs]), atol=1e-9)
+    rng = np.random.default_rng(3)
+    for _ in range(5):  # any CoPs inside the supports, switching 3 times per phase
+        pieces = []
+        for d, low, top in segs:
+            cuts = np.diff(np.concatenate([[0.0], np.sort(rng.uniform(0, d, 2)), [d]]))
+            pieces += [(c, low + rng.uniform(0, 1, 2) * (top - low)) for c in cuts]
+        got = through(pieces)
+        assert np.all(got >= lo - 1e-9) and np.all(got <= hi + 1e-9)
+    region = (np.array([0.8, 0.3]), np.array([1.0, 0.45]))
+    short = timing.capture_shortfall(xi0, segs, region, b)
+    np.testing.assert_allclose(short, np.maximum(np.maximum(lo - region[1], region[0] - hi), 0))
+
+
+def test_retimed_plan_dcm_is_the_integrated_dcm_of_its_vrp() -> None:
+    """A plan re-timed in three phases at once (order 5): its closed-form ξ_ref at each new
+    touchdown equals ξ integrated numerically through the re-timed VRP (eqs. 2, 10, 22)."""
+    config = Config()
+    plan = plan_from_config(config)
+    phase = 8
+    durations = plan.preview.durations.copy()
+    durations[phase : phase + 3] = [0.45, 0.05, 0.42]
+    p = timing.retimed(plan, durations)
+    start = float(p.preview.phase_start_times[phase])
+    end = float(p.preview.phase_start_times[phase + 3])
+    got = _integrate_dcm(p.preview.dcm(start), lambda s: p.preview.vrp(start + s), end - start)
+    np.testing.assert_allclose(got, p.preview.dcm(end), atol=1e-7)
+    assert np.linalg.norm(p.preview.dcm(end) - plan.preview.dcm(end)) > 1e-3  # it did change
+
+
+def test_a_vrp_outside_the_support_keeps_its_lateral_part() -> None:
+    """In double support (stance ahead-left of a foot that just landed beside it) a VRP asked far
+    out forward-left: the nearest point of the hull gives up most of its lateral part, the
+    priority projection keeps the stance sole's outer edge (and is inside the hull)."""
+    from dcmviz.robots.geometry import convex_hull, project_to_polygon, sole_corners
+
+    config = Config().replace(control={"recovery": "multi_step_timing"})
+    s = Session(config, backend="lip")
+    w = s.walker
+    spec = w.spec
+    w.placed = {
+        "left": Footstep("left", np.array([0.6, 0.085, 0.0]), 0.0),
+        "right": Footstep("right", np.array([0.8, -0.055, 0.0]), 0.0),
+    }
+    v = np.array([1.0, 0.3, 0.9])
+    hull = convex_hull(
+        np.vstack([sole_corners(f.position, 0.0, spec.foot_length_m, spec.foot_width_m)
+                   for f in w.placed.values()])
+    )  # fmt: skip
+    nearest, _ = project_to_polygon(v[:2], hull)
+    got = w._inside_support(v, {"left": True, "right": True})
+    assert project_to_polygon(got[:2], hull)[1] < 1e-9
+    assert got[1] > nearest[1] + 0.05
+    assert got[1] > 0.085 + 0.5 * spec.foot_width_m - 0.02
+    assert got[2] == v[2]
+    inside = np.array([0.7, 0.0, 0.9])
+    np.testing.assert_array_equal(w._inside_support(inside, {"left": True, "right": True}), inside)

@@ -23,11 +23,11 @@ import viser
 
 from dcmviz.dashboard import scene as draw
 
-AIM_COLOR = (255, 140, 0)
+AIM_COLOR = (255, 110, 0)
 AIM_TURN_DEG = 2.0  # a view that turned less than this keeps its arrow
-AIM_MOVE_M = 0.02  # the arrow follows the robot when it moved more than this
+AIM_MOVE_M = 0.05  # the arrow follows the robot when it moved more than this
 AIM_STANDOFF_M = 0.3  # the arrow's head stops this far before the point under the robot
-AIM_MAX_LENGTH_M = 2.5  # longer arrows (above 250 N) are drawn this long; the label says |F|
+AIM_MAX_LENGTH_M = 1.0  # longer arrows (above 100 N) are drawn this long; the label says |F|
 AIM_LIFT_M = 0.015  # above the ground (over the footstep markers)
 AIM_LABEL_LIFT_M = 0.08  # the label floats this far above the arrow's tail
 
@@ -162,7 +162,7 @@ class PushAim:
             if aim.arrow is None:
                 aim.arrow = aim.client.scene.add_arrows(
                     "/aim/arrow", points, AIM_COLOR,
-                    shaft_radius=0.014, head_radius=0.04, head_length=0.08,
+                    shaft_radius=0.01, head_radius=0.035, head_length=0.07,
                 )  # fmt: skip
             else:
                 aim.arrow.points = points

@@ -18,6 +18,7 @@ notifications and downloads go to the client that asked.
 
 from __future__ import annotations
 
+import asyncio
 import math
 from collections import deque
 from collections.abc import Callable
@@ -33,7 +34,7 @@ from dcmviz.dashboard.editor import CURRENT, ConfigEditor
 from dcmviz.dashboard.feasibility import FeasibilityPanel, likely_cause
 from dcmviz.dashboard.guard import install_guard
 from dcmviz.dashboard.gui import Controls
-from dcmviz.dashboard.loop import SimLoop
+from dcmviz.dashboard.loop import HOLD_MAX_S, SimLoop
 from dcmviz.dashboard.notify import Notifier
 from dcmviz.dashboard.plan_view import PlanView
 from dcmviz.dashboard.plots import LivePlot, PreviewPlots, phase_legend
@@ -49,6 +50,7 @@ from dcmviz.robots import get_spec
 from dcmviz.session import Session
 
 SessionFactory = Callable[[Config], Session]
+NEWCOMER_DRAW_TIMEOUT_S = 2.0  # a new tab's connection waits at most this for the restarted walk
 
 
 def new_session(config: Config) -> Session:
@@ -168,6 +170,12 @@ class Dashboard:
         self.push_panel.on_hint(self.show_push_hint)
         self.show_push_hint(self.push_panel.hint())
         self.server.on_client_connect(self._on_connect)
+        # viser's websocket layer calls these before it replays the scene to a new connection
+        # (ViserServer.on_client_connect fires only later, at the tab's first camera message)
+        websocket = getattr(self.server, "_websock_server", None)
+        self._early_connect = websocket is not None
+        if websocket is not None:
+            websocket.on_client_connect(self._on_websocket_open)
         self.editor.on_applied(self.show_config)
         self.editor.on_applied(lambda config, preset: self.preview.expect(self.editor.version))
         self.editor.on_rejected(self.controls.show)
@@ -186,11 +194,39 @@ class Dashboard:
         warn = self.feasibility.compact()
         return "  \n".join(x for x in (warn, self.push_panel.status()) if x)
 
+    def _first_viewer(self) -> bool:
+        """Nobody watches (no tab has reported its camera) and the walk is a plan, running."""
+        return (
+            not self.server.get_clients()
+            and self.config.gait.mode == "plan"
+            and self.loop.running()
+        )
+
+    async def _on_websocket_open(self, _connection: object) -> None:
+        """A tab opened its connection, before viser replays the scene to it.  The first viewer
+        sees the walk from its start, not a walk that ended before the page opened: the walk
+        restarts and holds at its start, and the restarted robot is drawn into the scene
+        before the replay, so the tab's first picture is the robot standing where the walk
+        begins (no stale pose, no jump back when the reset arrives).  The hold ends when the
+        tab reports its camera (its 3-D view is up), at most HOLD_MAX_S later."""
+        if not self._first_viewer():
+            return
+        await asyncio.get_running_loop().run_in_executor(None, self._restart_for_newcomer)
+
+    def _restart_for_newcomer(self) -> None:
+        resets = self.loop.resets
+        self.loop.post("reset")
+        self.loop.post("hold", HOLD_MAX_S)
+        if self.view.running():
+            self.view.wait_drawn(lambda snap: snap.resets > resets, NEWCOMER_DRAW_TIMEOUT_S)
+
     def _on_connect(self, client: viser.ClientHandle) -> None:
-        """The first viewer sees the walk from its start (not a walk that ended before the page
-        opened): when nobody else is watching, the plan restarts."""
-        if len(self.server.get_clients()) <= 1 and self.config.gait.mode == "plan":
-            self.loop.post("reset")
+        """A tab reported its camera (its view is up): a walk held for it starts."""
+        if self.loop.held:
+            self.loop.post("hold", 0.0)
+        elif not self._early_connect and len(self.server.get_clients()) <= 1:
+            if self.config.gait.mode == "plan":  # (no early hook: restart, visibly)
+                self.loop.post("reset")
 
     def _on_sim_event(self, kind: str, message: str) -> None:
         """A fall or fault (on the simulation thread): shown once, with its likely cause."""

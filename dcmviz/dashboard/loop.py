@@ -30,6 +30,7 @@ MAX_LAG_S = 1.0  # sim seconds the loop may fall behind (e.g. descheduled) and s
 SNAPSHOT_DT = 1.0 / 60.0  # wall seconds between published snapshots
 HISTORY_WINDOW_S = 8.0  # sim seconds of history in a snapshot
 HISTORY_DT = 0.2  # wall seconds between history copies (the live plot rate)
+HOLD_MAX_S = 10.0  # wall seconds a newcomer's tab may hold the walk at its start while it loads
 CONFIG_MIN_INTERVAL_S = 0.2  # configs are adopted at most this often (a dragged slider: the
 # newest waits; a restart per slider event, 30 a second, would stop the simulation keeping up)
 
@@ -64,6 +65,8 @@ class Snapshot:
     note: str = ""  # what the last config change did, for the status line
     note_seq: int = 0  # counts config changes that set a note (a repeated note is a new one)
     step_time_s: float = 0.0  # mean wall time of one control tick
+    resets: int = 0  # reset commands handled before this snapshot
+    held: bool = False  # the walk waits at its start for a newcomer's tab to finish loading
 
 
 def _finite(*arrays: Any) -> bool:
@@ -108,13 +111,14 @@ class SimLoop:
         self._last_history = 0.0
         self._pending_config: Any = None  # (version, Config) waiting for CONFIG_MIN_INTERVAL_S
         self._config_at = -float("inf")  # perf_counter of the last adopted config
+        self._hold_until = 0.0  # perf_counter until which the clock stands still ("hold")
         # the realised footsteps as drawn, rebuilt only when a foot lands (not at every publish)
         self._realised: tuple[tuple, tuple[Footstep, ...]] = ((), ())
         self._publish()
 
     # -- commands (any thread) --------------------------------------------------------------------
     def post(self, kind: str, payload: Any = None) -> None:
-        """Queue a command: config, reset, push, play, speed, loop or call."""
+        """Queue a command: config, reset, push, play, speed, loop, hold or call."""
         self._commands.put((kind, payload))
 
     def call(self, fn: Callable[[Session], Any], timeout: float = 10.0) -> Any:
@@ -141,6 +145,10 @@ class SimLoop:
     def start(self) -> None:
         self._thread = threading.Thread(target=self._run, name="dcmviz-sim", daemon=True)
         self._thread.start()
+
+    def running(self) -> bool:
+        """The simulation thread runs (it was started and has not stopped)."""
+        return self._thread is not None and self._thread.is_alive()
 
     def stop(self) -> None:
         self._stop.set()
@@ -180,7 +188,7 @@ class SimLoop:
                     self._publish()
                 time.sleep(0.02)
                 continue
-            if not self.playing:
+            if not self.playing or self.held:
                 if now - last_publish > 0.1:
                     self._publish()
                     last_publish = now
@@ -296,6 +304,8 @@ class SimLoop:
             self.speed = float(payload)
         elif kind == "loop":
             self.loop_plan = bool(payload)
+        elif kind == "hold":  # seconds to stand still (at most HOLD_MAX_S); 0 releases
+            self._hold_until = time.perf_counter() + min(max(float(payload), 0.0), HOLD_MAX_S)
         elif kind == "call":
             payload(self.session)
         else:
@@ -310,6 +320,11 @@ class SimLoop:
         if change:
             self.note = change
             self.note_seq += 1
+
+    @property
+    def held(self) -> bool:
+        """The clock stands still for a newcomer's tab (see the "hold" command)."""
+        return time.perf_counter() < self._hold_until
 
     # -- snapshots --------------------------------------------------------------------------------
     def real_time_factor(self) -> float:
@@ -340,6 +355,8 @@ class SimLoop:
             note=self.note,
             note_seq=self.note_seq,
             step_time_s=float(np.mean(self._step_times)) if self._step_times else 0.0,
+            resets=self.resets,
+            held=self.held,
         )
         if tick is None:  # reset, not stepped yet: the walk's plan, standing
             self.snapshot = Snapshot(t=float(s.t), plan=s.plan, plan_version=s.plan_version,

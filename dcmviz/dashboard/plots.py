@@ -16,7 +16,7 @@ MEASURED_STROKE = "#00aaff"
 REF_STROKE = "#444444"
 ADJ_STROKE = "#ff00c8"
 ERROR_STROKE = "#d62728"
-LIVE_POINTS = 300  # samples per live series (a 400 px wide panel shows no more)
+LIVE_POINTS = 200  # samples per live series (8 s in a 400 px wide panel: 25 a second)
 PREVIEW_POINTS = 250  # samples per preview series
 PLOT_TOLERANCE = 2e-3  # m (and s): a preview plot whose samples all moved less is not re-sent
 

@@ -13,6 +13,7 @@ import time
 from collections.abc import Callable
 
 import numpy as np
+import trimesh
 import viser
 
 from dcmviz.dashboard import scene as draw
@@ -24,12 +25,15 @@ from dcmviz.dashboard.status import StatusLine
 from dcmviz.robots import get_spec
 from dcmviz.visual import robot_visual
 
-RENDER_FPS = 40.0  # scene updates per second (≥ 30 with margin for scheduling jitter)
-STATUS_DT_S = 0.5  # the status line is rewritten at most this often, and only if its text changed
+RENDER_FPS = 36.0  # scene updates per second (≥ 30 with margin for scheduling jitter; every
+# frame costs one message per moving robot mesh and tab)
+STATUS_DT_S = 1.0  # the status line is rewritten at most this often, and only if its text changed
 PLOT_DT_S = 2.0  # the live plot is redrawn this often (its data is the largest message)
 FOLLOW_DT_S = 0.1  # camera-follow updates (per client, so kept slow)
 FOLLOW_GROUND_M = 0.02  # the view follows a change of the ground under the robot beyond this
 FLOOR_LIFT_M = 0.012  # overlays on the floor sit this high (above the footsteps)
+DOT_RADII_M = (0.028, 0.022, 0.022)  # ξ, ξ_adj, commanded VRP on the floor
+DOT_COLORS = (draw.MEASURED_DCM_COLOR, draw.ADJUSTED_DCM_COLOR, draw.COMMANDED_VRP_COLOR)
 MARKER_TOLERANCE_M = 5e-4  # a marker that moved less is not re-sent (below a pixel at 3 m)
 ARROW_TOLERANCE_M = 5e-3  # force arrows: ends that moved less are not re-sent
 GHOST_MIN_SHIFT_M = 0.01  # an adjusted footstep closer than this to its nominal place is no ghost
@@ -82,6 +86,8 @@ class SimView:
         self.robot_view: RobotView | None = None
         self.fps = 0.0
         self.frames_drawn = 0
+        self.drawn: Snapshot | None = None  # the last snapshot drawn into the scene
+        self._drawn_changed = threading.Condition()
         self._markers: dict[str, viser.SceneNodeHandle] = {}
         self._arrow_handles: dict[str, viser.ArrowsHandle] = {}
         self._steps_drawn: dict[str, tuple] = {}  # "adjusted"/"realised" → what is drawn
@@ -100,6 +106,16 @@ class SimView:
         if self._thread.is_alive():
             self._thread.join(timeout=5.0)
 
+    def running(self) -> bool:
+        return self._thread.is_alive()
+
+    def wait_drawn(self, condition: Callable[[Snapshot], bool], timeout: float) -> bool:
+        """Wait until a snapshot for which ``condition`` holds has been drawn into the scene."""
+        with self._drawn_changed:
+            return self._drawn_changed.wait_for(
+                lambda: self.drawn is not None and condition(self.drawn), timeout
+            )
+
     def _run(self) -> None:
         period = 1.0 / RENDER_FPS
         last: Snapshot | None = None
@@ -107,13 +123,15 @@ class SimView:
         last_plot = 0.0
         last_history = None
         last_follow = 0.0
+        last_status_key = (-1, False)  # a reset or a hold is shown at once
         frames, fps_t0 = 0, time.perf_counter()
         next_frame = fps_t0
         while not self._stop.is_set():
             t0 = time.perf_counter()
             snap = self.loop.snapshot
             try:
-                if snap is not last:
+                new = snap is not last
+                if new:
                     self.draw_snapshot(snap, last)
                     if (
                         snap.history is not last_history
@@ -133,9 +151,18 @@ class SimView:
                     if self.on_follow is not None:
                         self.on_follow(here)
                     last_follow = t0
-                if t0 - last_status >= STATUS_DT_S or self.status.is_new(snap):
+                if (
+                    t0 - last_status >= STATUS_DT_S
+                    or self.status.is_new(snap)
+                    or (snap.resets, snap.held) != last_status_key
+                ):
+                    last_status_key = (snap.resets, snap.held)
                     self._show_status(snap, t0)
                     last_status = t0
+                if new:  # the scene and the status line show it
+                    with self._drawn_changed:
+                        self.drawn = snap
+                        self._drawn_changed.notify_all()
             except Exception as err:  # noqa: BLE001 - no frame may end the drawing for every tab
                 # (seen: viser's message buffer raising "deque mutated during iteration" while
                 # a plot was sent); the next frame draws again
@@ -162,8 +189,9 @@ class SimView:
     def _draw_snapshot(self, snap: Snapshot) -> None:
         self.draw_robot(snap)
         drop = floor_drop(snap)
-        for name, value in (("xi", snap.xi), ("xi_adj", snap.xi_adj), ("v_cmd", snap.v_cmd)):
-            self._place(name, None if value is None else value - drop)
+        self._place_dots(
+            [None if v is None else v - drop for v in (snap.xi, snap.xi_adj, snap.v_cmd)]
+        )
         self.draw_forces(snap)
         spec = get_spec(snap.robot)
         for field, steps, color, opacity, lift in (
@@ -179,6 +207,19 @@ class SimView:
                 self.server.scene, f"/sim/{field}", soles,
                 spec.foot_length_m, spec.foot_width_m, color, opacity=opacity, lift=lift,
             )  # fmt: skip
+
+    def _place_dots(self, positions: list[np.ndarray | None]) -> None:
+        """ξ, ξ_adj and the commanded VRP: one node of three spheres, so a frame in which they
+        moved costs one message, not three (a hidden one is scaled to nothing)."""
+        dots = self._markers["dots"]
+        scales = np.array([0.0 if p is None else r for p, r in zip(positions, DOT_RADII_M, strict=True)],
+                          np.float32)  # fmt: skip
+        old = np.asarray(dots.batched_positions)
+        new = np.array([old[i] if p is None else p for i, p in enumerate(positions)], np.float32)
+        if not np.array_equal(np.asarray(dots.batched_scales), scales):
+            dots.batched_scales = scales
+        if np.abs(old - new).max() > MARKER_TOLERANCE_M:
+            dots.batched_positions = new
 
     def _place(self, name: str, position: np.ndarray | None) -> None:
         """Show a marker at ``position`` (None hides it), sending only a visible move."""
@@ -280,14 +321,20 @@ class SimView:
 
     def _make_markers(self) -> None:
         scene = self.server.scene
+        sphere = trimesh.creation.icosphere(subdivisions=2)
         self._markers = {
-            "xi": scene.add_icosphere("/sim/xi", radius=0.028, color=draw.MEASURED_DCM_COLOR),
-            "xi_adj": scene.add_icosphere(
-                "/sim/xi_adj", radius=0.022, color=draw.ADJUSTED_DCM_COLOR
-            ),
-            "v_cmd": scene.add_icosphere(
-                "/sim/v_cmd", radius=0.022, color=draw.COMMANDED_VRP_COLOR
-            ),
+            "dots": scene.add_batched_meshes_simple(
+                "/sim/dots",
+                sphere.vertices.astype(np.float32),
+                sphere.faces.astype(np.uint32),
+                batched_wxyzs=np.tile(np.float32([1, 0, 0, 0]), (3, 1)),
+                batched_positions=np.zeros((3, 3), np.float32),
+                batched_scales=np.zeros(3, np.float32),
+                batched_colors=np.array(DOT_COLORS, np.uint8),
+                lod="off",
+                cast_shadow=False,
+                receive_shadow=False,
+            ),  # fmt: skip
             "com": scene.add_icosphere(
                 "/sim/com", radius=0.09, color=(120, 120, 130), visible=False
             ),

@@ -16,6 +16,8 @@ NOTE_SHOW_S = 5.0  # wall seconds a change's note stays in the status line
 def walk_state(snap: Snapshot) -> str:
     if snap.fallen:
         return "fallen"
+    if snap.held and snap.playing:
+        return "about to walk"
     if snap.done:
         return "standing (plan done)"
     return "walking" if snap.playing else "paused"
@@ -50,7 +52,7 @@ class StatusLine:
     def text(self, snap: Snapshot, fps: float, now: float) -> str:
         speed = (
             f"real-time ×{snap.real_time_factor:4.2f} · {fps:4.1f} fps · "
-            if snap.playing and not snap.fallen
+            if snap.playing and not snap.fallen and not snap.held
             else ""
         )
         note = self.note(snap, now)

@@ -9,7 +9,9 @@ support while the CoP on the old stance foot brings the DCM back, and a short sw
 stepping-out foot recover far more (``dcmviz.recovery``, capacity).
 
 This module only builds and compares timings; the walker (``multi_step_timing``) picks among
-:func:`timing_candidates` the one whose recovery QP leaves the smallest CoP shortfall and moves
+:func:`timing_candidates` the one whose recovery QP leaves the smallest CoP shortfall, and
+whose supports until the footstep after next bears the weight can bring ξ onto that footstep
+(:func:`capture_shortfall`, the reachable DCM interval of :func:`reachable_dcm`), and moves
 the walked plan's durations towards it at most ``RATE`` s per s, so ξ_ref, ξ_adj and the VRP
 change continuously (a kink, never a jump) and the swing foot is re-timed from its present state
 (:meth:`~dcmviz.gait.swing.SwingTrajectory.retime`).  Limits: a single support lasts
@@ -31,7 +33,8 @@ from dcmviz.dcm.preview import PhaseSchedule
 from dcmviz.gait.plan import GaitPlan
 
 SS_SCALE = (1.0, 0.6)  # single support: nominal, short (the stepping-out foot hurries)
-DS_SCALE = (1.0, 2.5)  # double support: nominal, long (the CoP brings ξ back between the feet)
+# double support: nominal, short (the weight moves sooner), long (the CoP brings ξ back)
+DS_SCALE = (1.0, 0.5, 2.5, 5.0)
 MIN_SS_S = 0.35  # s, shortest single support (the swing must still lift and place the foot)
 MIN_DS_S = 0.1  # s, shortest double support (weight transfer)
 MIN_REMAINING_S = 0.12  # s, a single support under way ends no sooner than this from now
@@ -111,3 +114,32 @@ def timing_candidates(plan: GaitPlan, local: float, phases: int = PHASES) -> lis
 def towards(current: np.ndarray, target: np.ndarray, max_change_s: float) -> np.ndarray:
     """``current`` durations moved towards ``target`` by at most ``max_change_s`` each."""
     return current + np.clip(target - current, -max_change_s, max_change_s)
+
+
+def reachable_dcm(
+    xi0: np.ndarray, segments: list[tuple[float, np.ndarray, np.ndarray]], b: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per axis, the interval of DCMs reachable after ``segments`` (duration s, CoP box lo, hi):
+    ξ(T) = e^{T/b} ξ_0 + (1 − e^{T/b}) v (eq. 5, order 0) is monotone in ξ_0 and in v, so the
+    extremes come from the interval's ends and the box's opposite edges, phase after phase."""
+    lo = np.asarray(xi0, float).copy()
+    hi = lo.copy()
+    for duration, box_lo, box_hi in segments:
+        if duration <= 0.0:
+            continue
+        e = math.exp(duration / b)
+        lo, hi = e * lo + (1.0 - e) * box_hi, e * hi + (1.0 - e) * box_lo
+    return lo, hi
+
+
+def capture_shortfall(
+    xi0: np.ndarray,
+    segments: list[tuple[float, np.ndarray, np.ndarray]],
+    region: tuple[np.ndarray, np.ndarray],
+    b: float,
+) -> np.ndarray:
+    """How far (per axis, m) the DCMs reachable after ``segments`` stay from ``region`` (lo, hi):
+    0 when some CoP inside each phase's support brings ξ into the region (capturable there)."""
+    lo, hi = reachable_dcm(xi0, segments, b)
+    r_lo, r_hi = (np.asarray(x, float) for x in region)
+    return np.maximum(np.maximum(lo - r_hi, r_lo - hi), 0.0)

@@ -19,6 +19,7 @@ from dcmviz.cli import BadInput
 from dcmviz.config import Config, ControlSection
 from dcmviz.gait import plan_from_config
 from dcmviz.robots import get_spec
+from dcmviz.sweep.bounds import stance_edge_bound
 from dcmviz.sweep.report import ratios
 from dcmviz.sweep.runner import (
     Cell,
@@ -232,7 +233,21 @@ def envelope(
         "rollouts": _counts(sweep),
         "rows": rows,
         "ratios": ratios(rows),
+        "stance_edge_bound_ns": stance_edge_bounds(config, settings),
     }
+
+
+def stance_edge_bounds(config: Config, settings: SweepSettings) -> dict[str, float]:
+    """Per direction (°) with a part towards the stance foot, the impulse no strategy without
+    crossing steps can exceed (dcmviz.sweep.bounds)."""
+    out = {}
+    for angle in settings.direction_angles():
+        value = stance_edge_bound(
+            config, settings.step, settings.phase, settings.push_duration_s, angle
+        )
+        if value is not None:
+            out[f"{math.degrees(angle):.1f}"] = round(value, 2)
+    return out
 
 
 def _counts(sweep: SweepRun) -> dict[str, Any]:

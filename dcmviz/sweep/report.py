@@ -95,6 +95,17 @@ def table(result: dict[str, Any]) -> str:
         lines.append("* survival is not monotone here: a larger grid impulse survived (see JSON)")
     if any(r["capped"] for r in rows):
         lines.append("≥ survived the whole bracket; raise --max-impulse")
+    bound = result.get("stance_edge_bound_ns") or {}
+    if bound:
+        lines.append(
+            "towards the stance foot no strategy without crossing steps exceeds (CoP on the "
+            "stance sole's edge from the push's start, dcmviz.sweep.bounds): "
+            + ", ".join(
+                f"{float(d):.0f}° {v:.1f}"
+                for d, v in sorted(bound.items(), key=lambda x: float(x[0]))
+            )
+            + " N·s"
+        )
     lines.append(f"{len(rows)} cells in {result['wall_time_s']:.1f} s wall")
     return "\n".join(lines)
 
