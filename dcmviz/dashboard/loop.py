@@ -382,7 +382,8 @@ class SimLoop:
 
     def _realised_steps(self, records: tuple) -> tuple[Footstep, ...]:
         """``records`` as Footsteps, built again only when they changed (a landing or a reset
-        adds or replaces the last record): ~160 µs for 64 records, was paid at every publish."""
+        adds or replaces the last record): 64 records cost ~23 µs of CPU, paid at every publish
+        before."""
         seen, steps = self._realised
         if len(records) != len(seen) or (records and records[-1] is not seen[-1]):
             steps = tuple(Footstep(r.side, r.position, 0.0) for r in records)
