@@ -20,11 +20,18 @@ import pytest
 viser = pytest.importorskip("viser")
 websockets = pytest.importorskip("websockets")
 
-from test_guard import CAMERA, decode, free_port, tab, update, uuid_of, wait_for  # noqa: E402
+import helpers  # noqa: E402
+from test_guard import CAMERA, decode, free_port, tab, update, uuid_of  # noqa: E402
 
 from dcmviz.config import Config  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
 from dcmviz.session import Session  # noqa: E402
+
+
+def wait_for(condition, timeout: float = 20.0) -> bool:
+    """Wait on the condition, long enough for a loaded machine (the suite shares 2 cores with
+    other jobs: a 5 s bound expired once on a fault notification under a load average of 7)."""
+    return helpers.wait_for(condition, max(timeout, 20.0))
 
 
 class Tab:
@@ -143,6 +150,7 @@ def still_working(d: Dashboard, port: int, *tabs: Tab) -> None:
 def test_backend_fault_resets_the_walk_and_is_shown_once(running, kind) -> None:
     d, injector, port = running
     tabs = [Tab(port), Tab(port)]
+    assert wait_for(lambda: len(d.server.get_clients()) == 2)  # both receive every pop-up
     try:
         titles = {"Simulation fault"}
         for n in (1, 2):
@@ -165,6 +173,7 @@ def test_backend_fault_resets_the_walk_and_is_shown_once(running, kind) -> None:
 def test_fall_is_shown_once_with_its_likely_cause(running) -> None:
     d, _, port = running
     tabs = [Tab(port), Tab(port)]
+    assert wait_for(lambda: len(d.server.get_clients()) == 2)  # both receive every pop-up
     try:
         for n in (1, 2):
             assert wait_for(lambda: not d.loop.snapshot.fallen and d.loop.session.t > 0.5)
@@ -187,6 +196,7 @@ def test_fall_cause_names_the_plan_warning(running) -> None:
     """A plan the checker warns about: the fall names the warning (the likely cause)."""
     d, _, port = running
     tab_ = Tab(port)
+    assert wait_for(lambda: len(d.server.get_clients()) == 1)
     try:
         assert d.editor.on_field_change("gait", "t_start", 0.2)  # D2 outside the support
         assert wait_for(
@@ -204,6 +214,7 @@ def test_fall_cause_names_the_plan_warning(running) -> None:
 def test_exception_in_a_callback_is_told_and_changes_nothing(running, monkeypatch) -> None:
     d, _, port = running
     tabs = [Tab(port), Tab(port)]
+    assert wait_for(lambda: len(d.server.get_clients()) == 2)  # both receive every pop-up
     try:
         n = d.controls.handles[("gait", "n_steps")]
 
@@ -228,6 +239,7 @@ def test_exception_in_the_recorder_stops_the_recording_not_the_walk(running, mon
 
     d, _, port = running
     tabs = [Tab(port)]
+    assert wait_for(lambda: len(d.server.get_clients()) == 1)
     try:
         calls = []
 
@@ -253,6 +265,7 @@ def test_exception_in_the_recorder_stops_the_recording_not_the_walk(running, mon
 def test_faults_leave_memory_where_it_was(running) -> None:
     d, injector, port = running
     tab_ = Tab(port)
+    assert wait_for(lambda: len(d.server.get_clients()) == 1)
     try:
 
         def faults(count: int) -> None:

@@ -146,3 +146,44 @@ def test_recording_again_and_again_reuses_one_rerun_stream(tmp_path) -> None:
             if not chunk.is_static and str(chunk.entity_path) == "/plots/x"
         )
         assert rows == 100  # 1 s at 10 ms, in each file
+
+
+def test_endless_walk_heap_does_not_grow_with_the_steps_walked(monkeypatch) -> None:
+    """Python's heap (tracemalloc) over 60 steps of an endless walk pushed at every step, once its
+    bounded lists are full: what stays is the current plan, the latest records and pushes and
+    numpy's small-buffer cache (measured: +8 to +11 KB over 60 steps, a sawtooth of ±5 KB from the
+    walker's A_adj cache).  Anything kept per step or per replanning grows 60× its size: the
+    pushes kept without a bound (PUSHES_KEPT = 4000, as before the cap) add 76 KB and fail
+    this (measured), a StepRecord with a Footstep (~0.6 KB) per step would add ~36 KB."""
+    import tracemalloc
+
+    monkeypatch.setattr(walker_module, "RECORDS_KEPT", 6)
+    monkeypatch.setattr(session_module, "PUSHES_KEPT", 4)
+    config = Config().replace(
+        sim={"backend": "lip"}, gait={"mode": "continuous", "t_ss": 0.5, "t_ds": 0.1}
+    )
+    s = Session(config, backend="lip")
+    sign = 1.0
+
+    def walk_to(n: int) -> int:
+        nonlocal sign
+        while s.steps_completed < n:
+            k = s.steps_completed
+            s.push((0.0, 30.0 * sign, 0.0), duration=0.1)
+            sign = -sign
+            while s.steps_completed == k:  # measured right after a touchdown: the same phase
+                s.step()
+                s.tick()
+        assert not s.fell
+        gc.collect()
+        return tracemalloc.get_traced_memory()[0]
+
+    walk_to(30)  # the lists are full, the caches warm
+    tracemalloc.start()
+    try:
+        walk_to(40)
+        before = walk_to(50)
+        after = walk_to(110)
+    finally:
+        tracemalloc.stop()
+    assert after - before < 32_000, (before, after)

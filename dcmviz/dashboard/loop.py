@@ -112,6 +112,8 @@ class SimLoop:
         self._pending_config: Any = None  # (version, Config) waiting for CONFIG_MIN_INTERVAL_S
         self._config_at = -float("inf")  # perf_counter of the last adopted config
         self._hold_until = 0.0  # perf_counter until which the clock stands still ("hold")
+        # the realised footsteps as drawn, rebuilt only when a foot lands (not at every publish)
+        self._realised: tuple[tuple, tuple[Footstep, ...]] = ((), ())
         self._publish()
 
     # -- commands (any thread) --------------------------------------------------------------------
@@ -371,12 +373,22 @@ class SimLoop:
             f_hat=tick.f_hat,
             pushes=tuple((p.body, p.point, p.force) for p in tick.pushes),
             adjusted_steps=tick.adjusted_steps(),
-            realised_steps=tuple(Footstep(r.side, r.position, 0.0) for r in tick.realised_steps),
+            realised_steps=self._realised_steps(tick.realised_steps),
             plan=tick.plan,
             plan_version=tick.plan_version,
             tick=tick,
             **common,
         )
+
+    def _realised_steps(self, records: tuple) -> tuple[Footstep, ...]:
+        """``records`` as Footsteps, built again only when they changed (a landing or a reset
+        adds or replaces the last record): 64 records cost ~23 µs of CPU, paid at every publish
+        before."""
+        seen, steps = self._realised
+        if len(records) != len(seen) or (records and records[-1] is not seen[-1]):
+            steps = tuple(Footstep(r.side, r.position, 0.0) for r in records)
+            self._realised = (records, steps)
+        return steps
 
     @staticmethod
     def _history_window(session: Session) -> dict[str, np.ndarray]:
