@@ -82,15 +82,10 @@ class PushAim:
 
     # -- what the dashboard calls -----------------------------------------------------------------
     def direction(self, client: viser.ClientHandle | None, fallback) -> np.ndarray:
-        """The horizontal direction a click from ``client`` pushes along (its view); the click
-        ray's horizontal part where the view has none."""
+        """The direction a click from ``client`` pushes along: its horizontal view, or
+        ``fallback`` (the click ray) where the view has none."""
         d = view_direction(client.camera) if client is not None else None
-        if d is None:
-            d = np.array(fallback, float)
-            d[2] = 0.0
-            n = float(np.linalg.norm(d))
-            d = d / n if n > 1e-9 else np.array([0.0, 1.0, 0.0])
-        return d
+        return d if d is not None else np.asarray(fallback, float)  # (horizontal_force levels it)
 
     def follow(self, anchor: np.ndarray | None) -> None:
         """Place every tab's arrow at ``anchor`` (the ground point under the robot; None hides
@@ -157,8 +152,8 @@ class PushAim:
             or float(np.clip(old[0] @ direction, -1.0, 1.0)) < math.cos(math.radians(AIM_TURN_DEG))
             or old[1] != magnitude
         )
+        points = aim_points(direction, magnitude)
         if turned:
-            points = aim_points(direction, magnitude)
             if aim.arrow is None:
                 aim.arrow = aim.client.scene.add_arrows(
                     "/aim/arrow", points, AIM_COLOR,
@@ -167,8 +162,7 @@ class PushAim:
             else:
                 aim.arrow.points = points
         if turned or old[2] != text:
-            tail = aim_points(direction, magnitude)[0, 0]
-            position = tail + np.array([0.0, 0.0, AIM_LABEL_LIFT_M], np.float32)
+            position = points[0, 0] + np.array([0.0, 0.0, AIM_LABEL_LIFT_M], np.float32)
             if aim.label is None:
                 aim.label = aim.client.scene.add_label("/aim/label", text, position=position)
             else:

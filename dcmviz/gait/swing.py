@@ -219,15 +219,13 @@ class SwingTrajectory:
 
     def _horizontal(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         tau = min(max(t, self.t_seg), self.t_touch) - self.t_seg
-        if t >= self.t_touch:
-            p = [c0 + tau * (c1 + tau * (c2 + tau * (c3 + tau * (c4 + tau * c5))))
-                 for c0, c1, c2, c3, c4, c5 in self._columns]  # fmt: skip
-            return np.array(p), np.zeros(3), np.zeros(3)
         p, v, a = [], [], []
         for c0, c1, c2, c3, c4, c5 in self._columns:  # Horner, per component in floats
             p.append(c0 + tau * (c1 + tau * (c2 + tau * (c3 + tau * (c4 + tau * c5)))))
             v.append(c1 + tau * (2 * c2 + tau * (3 * c3 + tau * (4 * c4 + tau * 5 * c5))))
             a.append(2 * c2 + tau * (6 * c3 + tau * (12 * c4 + tau * 20 * c5)))
+        if t >= self.t_touch:
+            return np.array(p), np.zeros(3), np.zeros(3)
         return np.array(p), np.array(v), np.array(a)
 
     @functools.cached_property
