@@ -243,7 +243,13 @@ def stance_edge_bounds(config: Config, settings: SweepSettings) -> dict[str, flo
     out = {}
     for angle in settings.direction_angles():
         value = stance_edge_bound(
-            config, settings.step, settings.phase, settings.push_duration_s, angle
+            config,
+            settings.step,
+            settings.phase,
+            settings.push_duration_s,
+            angle,
+            backend=settings.backend,
+            body=settings.body,
         )
         if value is not None:
             out[f"{math.degrees(angle):.1f}"] = round(value, 2)

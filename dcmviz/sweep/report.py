@@ -99,7 +99,8 @@ def table(result: dict[str, Any]) -> str:
     if bound:
         lines.append(
             "towards the stance foot no strategy without crossing steps exceeds (CoP on the "
-            "stance sole's edge from the push's start, dcmviz.sweep.bounds): "
+            "stance sole's edge from the push's start, a humanoid's feet also taking the push's "
+            "moment about the CoM; dcmviz.sweep.bounds): "
             + ", ".join(
                 f"{float(d):.0f}° {v:.1f}"
                 for d, v in sorted(bound.items(), key=lambda x: float(x[0]))
