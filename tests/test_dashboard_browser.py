@@ -207,11 +207,15 @@ def test_push_raises_and_recovers_dcm_error(page, app, shots: Path) -> None:
 
 def test_second_tab_sees_same_session(browser, page, app) -> None:
     dashboard, url = app
+    first = number_input(page, dashboard, ("gait", "n_steps"))
+    first.fill("13")  # a state the first tab sets (this test's own, whatever ran before)
+    first.press("Enter")
+    assert wait_for(lambda: dashboard.config.gait.n_steps == 13)
     other = browser.new_page(viewport={"width": 900, "height": 600})
     other.goto(url)
     other.get_by_text("T_ss [s]").wait_for(timeout=30_000)
     box = number_input(other, dashboard, ("gait", "n_steps"))
-    assert box.input_value() == "14"  # the state the first tab set
+    assert box.input_value() == "13"  # the state the first tab set
     box.fill("12")
     box.press("Enter")
     assert wait_for(lambda: dashboard.config.gait.n_steps == 12)
@@ -284,16 +288,27 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
     client.camera.position = position
     look_at = com + np.array([0.0, -0.5, 0.0])  # the CoM left of the panel
     client.camera.look_at = look_at
-    # the tab applied the camera once it reports both back (the orientation follows the look-at:
-    # projecting with the position alone raced the turn when this test ran first)
-    assert wait_for(
-        lambda: (
-            np.allclose(client.camera.position, position, atol=1e-3)
-            and np.allclose(client.camera.look_at, look_at, atol=1e-3)
+    canvas = page.locator("canvas").first
+    dpr = page.evaluate("window.devicePixelRatio")
+
+    def camera_applied() -> bool:
+        # the tab applied the camera once it reports it back (position, look-at, an orientation
+        # along them) for the canvas as it is now: the tab reports its camera when the camera
+        # moves, so a report can carry the canvas's size from before the plots panel narrowed
+        # it (1200 px for 796: the projection 40 px off when this test ran alone)
+        cam, box = client.camera, canvas.bounding_box()
+        return bool(
+            np.allclose(cam.position, position, atol=1e-3)
+            and np.allclose(cam.look_at, look_at, atol=1e-3)
+            and looks_along(cam, look_at - position)
+            and box is not None
+            and abs(cam.image_width - box["width"] * dpr) <= 1
+            and abs(cam.image_height - box["height"] * dpr) <= 1
         )
-    )
+
+    assert wait_for(camera_applied)
     u, v = project(client.camera, com)
-    box = page.locator("canvas").first.bounding_box()
+    box = canvas.bounding_box()
     x, y = box["x"] + u * box["width"], box["y"] + v * box["height"]
     notes = page.locator(".mantine-Notification-root")
 
@@ -349,6 +364,14 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
     dashboard.sim_panel.on_play(True)
     page.get_by_text("pushed torso").first.wait_for(timeout=5_000)  # the status names it
     page.screenshot(path=shots / "07_click_push.png")
+
+
+def looks_along(cam, direction: np.ndarray, tol: float = 1e-3) -> bool:
+    """Whether the camera's reported orientation (its OpenCV z axis) points along ``direction``."""
+    import viser.transforms as vtf
+
+    z = vtf.SO3(np.asarray(cam.wxyz)).as_matrix()[:, 2]
+    return bool(np.linalg.norm(z - direction / np.linalg.norm(direction)) < tol)
 
 
 def project(cam, point: np.ndarray) -> tuple[float, float]:
