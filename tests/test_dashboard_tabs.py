@@ -102,7 +102,9 @@ def viewing(dashboard: Dashboard, tabs: list) -> bool:
     return len(cameras) == len(tabs) and all(cameras) and all(shown_t(p) is not None for p in tabs)
 
 
-def test_five_tabs_same_state_and_real_time(app, pages) -> None:
+def test_five_tabs_same_state_then_one_sleeps_and_one_closes(app, pages) -> None:
+    """One scenario, not two tests: a tab opened after four others draw software WebGL on two
+    cores takes a minute or more to load, so the closed tab cannot be put back for a later test."""
     dashboard = app
     assert wait_for(lambda: len(dashboard.server.get_clients()) == TABS)
     assert wait_for(lambda: viewing(dashboard, pages)), [shown_t(p) for p in pages]
@@ -117,12 +119,10 @@ def test_five_tabs_same_state_and_real_time(app, pages) -> None:
     finally:
         dashboard.sim_panel.on_play(True)
 
-
-def test_a_sleeping_or_closed_tab_changes_nothing_for_the_others(app, pages) -> None:
-    dashboard = app
+    # a browser goes to sleep (a frozen page) and a tab closes: nothing changes for the others
     asleep, closing, awake = pages[0], pages[1], pages[2:]
     cdp = asleep.context.new_cdp_session(asleep)
-    cdp.send("Page.setWebLifecycleState", {"state": "frozen"})  # a browser gone to sleep
+    cdp.send("Page.setWebLifecycleState", {"state": "frozen"})
     closing.close()
     assert wait_for(lambda: len(dashboard.server.get_clients()) == TABS - 1)
     assert real_time_factor(dashboard, 6.0) > 0.0  # the walk goes on beside a frozen tab
@@ -132,4 +132,5 @@ def test_a_sleeping_or_closed_tab_changes_nothing_for_the_others(app, pages) -> 
         cdp.send("Page.setWebLifecycleState", {"state": "active"})  # wakes up and catches up
         assert wait_for(lambda: same_state(dashboard, [asleep, *awake]), timeout=30.0)
     finally:
+        cdp.send("Page.setWebLifecycleState", {"state": "active"})
         dashboard.sim_panel.on_play(True)

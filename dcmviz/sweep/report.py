@@ -61,6 +61,11 @@ def envelope_metric(
     raise ValueError(f"metric {metric!r}: allowed {', '.join(METRICS)}")
 
 
+def _direction(by_dir: dict[float, Any], degrees: float) -> float | None:
+    """The row direction within 0.05° of ``degrees`` (the bound's keys are rounded)."""
+    return next((d for d in by_dir if abs(d - degrees) < 0.05), None)
+
+
 def table(result: dict[str, Any]) -> str:
     """The envelope as a text table (impulses in N·s) with ratios to tracking."""
     names = result["settings"]["controllers"]
@@ -107,6 +112,18 @@ def table(result: dict[str, Any]) -> str:
             )
             + " N·s"
         )
+        for d, v in sorted(bound.items(), key=lambda x: float(x[0])):
+            reached = by_dir.get(_direction(by_dir, float(d)), {})
+            if reached:
+                lines.append(
+                    f"  {float(d):.0f}°: "
+                    + ", ".join(
+                        f"{n} {100 * reached[n]['max_impulse_ns'] / v:.0f} %"
+                        for n in names
+                        if n in reached
+                    )
+                    + " of it"
+                )
     lines.append(f"{len(rows)} cells in {result['wall_time_s']:.1f} s wall")
     return "\n".join(lines)
 
