@@ -81,8 +81,9 @@ def number_input(page, dashboard: Dashboard, key: tuple[str, str]):
         else dashboard.controls.handles[key]
     )
     uuid = handle._impl.uuid
-    box = page.locator(f"[id='{uuid}']").locator("xpath=..").locator("input:not([type=hidden])")
-    box = box.first
+    box = (
+        page.locator(f"[id='{uuid}']").locator("xpath=..").locator("input:not([type=hidden])").first
+    )
     # on the panel's tab that holds it, whichever tab an earlier test left open (pop-ups, such as
     # headless Chromium's "software WebGL" notice, closed: they may lie over the tabs)
     if not box.is_visible():

@@ -61,11 +61,6 @@ def envelope_metric(
     raise ValueError(f"metric {metric!r}: allowed {', '.join(METRICS)}")
 
 
-def _direction(by_dir: dict[float, Any], degrees: float) -> float | None:
-    """The row direction within 0.05° of ``degrees`` (the bound's keys are rounded)."""
-    return next((d for d in by_dir if abs(d - degrees) < 0.05), None)
-
-
 def table(result: dict[str, Any]) -> str:
     """The envelope as a text table (impulses in N·s) with ratios to tracking."""
     names = result["settings"]["controllers"]
@@ -100,30 +95,21 @@ def table(result: dict[str, Any]) -> str:
         lines.append("* survival is not monotone here: a larger grid impulse survived (see JSON)")
     if any(r["capped"] for r in rows):
         lines.append("≥ survived the whole bracket; raise --max-impulse")
-    bound = result.get("stance_edge_bound_ns") or {}
+    # keyed as experiments.stance_edge_bounds keys it: degrees to 0.1
+    bound = sorted((result.get("stance_edge_bound_ns") or {}).items(), key=lambda x: float(x[0]))
     if bound:
         lines.append(
             "towards the stance foot no strategy without crossing steps exceeds (CoP on the "
             "stance sole's edge from the push's start, a humanoid's feet also taking the push's "
             "moment about the CoM; dcmviz.sweep.bounds): "
-            + ", ".join(
-                f"{float(d):.0f}° {v:.1f}"
-                for d, v in sorted(bound.items(), key=lambda x: float(x[0]))
-            )
+            + ", ".join(f"{float(d):.0f}° {v:.1f}" for d, v in bound)
             + " N·s"
         )
-        for d, v in sorted(bound.items(), key=lambda x: float(x[0])):
-            reached = by_dir.get(_direction(by_dir, float(d)), {})
-            if reached:
-                lines.append(
-                    f"  {float(d):.0f}°: "
-                    + ", ".join(
-                        f"{n} {100 * reached[n]['max_impulse_ns'] / v:.0f} %"
-                        for n in names
-                        if n in reached
-                    )
-                    + " of it"
-                )
+        reached_at = {f"{d:.1f}": cells for d, cells in by_dir.items()}
+        for d, v in bound:
+            if reached := reached_at.get(d):
+                shares = (f"{n} {100 * reached[n]['max_impulse_ns'] / v:.0f} %" for n in names)
+                lines.append(f"  {float(d):.0f}°: " + ", ".join(shares) + " of it")
     lines.append(f"{len(rows)} cells in {result['wall_time_s']:.1f} s wall")
     return "\n".join(lines)
 
