@@ -329,9 +329,11 @@ def first_view(path: Path, preset: Path, walked_s: float = 3.0) -> None:
         ):
             time.sleep(0.01)
         path.parent.mkdir(parents=True, exist_ok=True)
-        page.screenshot(path=str(path))
+        t_asked, wall = loop.session.t, time.perf_counter()
+        page.screenshot(path=str(path))  # under load Chromium may take seconds to give a frame
         print(f"first view: {path} (restarts {loop.resets - resets}, asked at t = {walked_s} s, "
-              f"now t = {loop.session.t:.2f} s, falls {loop.falls})")  # fmt: skip
+              f"taken from t = {t_asked:.2f} s in {time.perf_counter() - wall:.1f} s wall: "
+              f"t = {loop.session.t:.2f} s after it, falls {loop.falls})")  # fmt: skip
         browser.close()
     dashboard.stop()
     server.stop()
