@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from dcmviz import GRAVITY  # noqa: E402
 from dcmviz.config import Config, ConfigError  # noqa: E402
-from dcmviz.robots import get_spec  # noqa: E402
+from dcmviz.robots import load_robot  # noqa: E402
 
 HORIZONTAL_LIMIT_M = 0.03
 VERTICAL_LIMIT_M = 0.02
@@ -55,12 +55,12 @@ def scaled_envelope(spec) -> Envelope:
     turns kept inside the robot's reach (steps up to the share of ``max_step_length_m`` Talos
     walks, 0.40 / 0.45; widths from ``min_step_width_m`` + 1 cm; |turn| ≤ ``max_turn_rad``)."""
     talos = ENVELOPES["talos"]
-    s = spec.com_height_m / get_spec("talos").com_height_m
+    s = spec.com_height_m / load_robot("talos").spec.com_height_m
     lo_w = max(talos.step_width[0] * s, spec.min_step_width_m + 0.01)
     hi_w = min(max(talos.step_width[1] * s, lo_w + 0.05), spec.max_step_width_m)
     turn = min(talos.turn[1], spec.max_turn_rad)
     # Talos walks its envelope up to 0.40 of its 0.45 m reach: the same share of the robot's
-    share = talos.step_length[1] / get_spec("talos").max_step_length_m
+    share = talos.step_length[1] / load_robot("talos").spec.max_step_length_m
     longest = min(talos.step_length[1] * s, share * spec.max_step_length_m)
     return Envelope(
         step_length=(max(talos.step_length[0] * s, -longest), longest),
@@ -72,7 +72,7 @@ def scaled_envelope(spec) -> Envelope:
 def draw(robot: str, rng: np.random.Generator) -> dict:
     """One random setting of the envelope, as preset sections."""
     env = ENVELOPES.get(robot)
-    spec = get_spec(robot)
+    spec = load_robot(robot).spec
     if env is None:  # another robot: Talos's envelope scaled by the CoM height, inside its reach
         env = scaled_envelope(spec)
     height = rng.uniform(*spec.com_height_range_m)
@@ -167,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--jobs", type=int, default=2, help="parallel walks (processes)")
     args = p.parse_args(argv)
     try:
-        spec = get_spec(args.robot)  # a built-in name or a robot file, checked as a whole
+        spec = load_robot(args.robot).spec  # a built-in name or a robot file, checked as a whole
     except ValueError as err:
         print(f"--robot {args.robot}: {err}", file=sys.stderr)
         return 2

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from dcmviz.config import load_preset
+from dcmviz.robots import load_robot
 from dcmviz.sim import mujoco_sim
 from dcmviz.sim.mujoco_sim import MujocoBackend
 from dcmviz.sim.wbc import solver
@@ -47,9 +48,9 @@ def main() -> None:
     clock = time.thread_time if args.clock == "cpu" else time.perf_counter
     mujoco_sim._clock = solver._clock = clock
     config = load_preset(args.preset)
-    backend = MujocoBackend(config.robot.model)
+    backend = MujocoBackend(load_robot(config.robot.model))
     state = backend.reset()
-    walker = Walker(config, mass=backend.mass, dt=backend.control_dt)
+    walker = Walker(config, backend.spec, mass=backend.mass, dt=backend.control_dt)
     walker.reset(state)
     duration = args.duration or config.sim.duration
     walker_s = 0.0

@@ -20,7 +20,7 @@ from typing import Any, Literal
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from dcmviz.robots import ROBOT_NAMES, get_spec
+from dcmviz.robots import BUILTIN_ROBOTS, RobotFileError, load_robot
 from dcmviz.robots.reach import check_reachable
 
 MAX_PRESET_BYTES = 64 * 1024  # presets are small; larger uploads are refused
@@ -71,13 +71,10 @@ class RobotSection(_Section):
     @field_validator("model")
     @classmethod
     def _robot_file_loads(cls, v: str) -> str:
-        from dcmviz.robots.file import RobotFileError
-        from dcmviz.robots.model import build_model
-
         try:
-            build_model(v)  # the whole robot file is checked: nothing half-loads
+            load_robot(v)  # the whole robot file is checked: nothing half-loads
         except RobotFileError as err:
-            raise ValueError(str(err)) from None
+            raise ValueError(str(err).removeprefix(f"robot.model = {v!r}: ")) from None
         return v
 
 
@@ -269,7 +266,7 @@ class Config(_Section):
 
     @model_validator(mode="after")
     def _robot_consistent(self) -> Config:
-        spec = get_spec(self.robot.model)
+        spec = load_robot(self.robot.model).spec
         for i, push in enumerate(self.pushes):
             if push.body not in spec.bodies:
                 raise ValueError(
@@ -433,7 +430,7 @@ def field_info(section: str, name: str) -> dict[str, Any]:
 
 
 __all__ = [
-    "ROBOT_NAMES",
+    "BUILTIN_ROBOTS",
     "Config",
     "ConfigError",
     "ControlSection",

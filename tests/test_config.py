@@ -17,7 +17,7 @@ from dcmviz.config import (
     loads_preset,
     save_preset,
 )
-from dcmviz.robots import SPECS
+from dcmviz.robots import BUILTIN_ROBOTS, load_robot
 
 PRESETS = sorted(Path(__file__).parents[1].joinpath("presets").glob("*.toml"))
 
@@ -158,9 +158,9 @@ def test_b_outside_the_robots_heights_is_refused_with_height_and_ranges():
             assert word in message, message
 
 
-@pytest.mark.parametrize("robot", sorted(SPECS))
+@pytest.mark.parametrize("robot", sorted(BUILTIN_ROBOTS))
 def test_b_range_follows_the_robots_com_heights(robot):
-    spec = SPECS[robot]
+    spec = load_robot(robot).spec
     lo, hi = spec.b_range_s
     # Δz_vrp = g b² is the CoM height (eq. 1): the ends of b's range give the ends of the heights
     assert GRAVITY * lo**2 == pytest.approx(spec.min_com_height_m, abs=1e-12)
@@ -181,7 +181,7 @@ def test_b_range_follows_the_robots_com_heights(robot):
 @pytest.mark.parametrize("path", PRESETS, ids=lambda p: p.stem)
 def test_every_presets_b_is_a_height_its_robot_walks_at(path):
     config = load_preset(path)
-    spec = SPECS[config.robot.model]
+    spec = load_robot(config.robot.model).spec
     assert spec.min_com_height_m <= GRAVITY * config.dcm.b**2 <= spec.max_com_height_m
 
 

@@ -25,7 +25,7 @@ from dcmviz.dashboard import Dashboard  # noqa: E402
 from dcmviz.dashboard.gui import label, slider_range  # noqa: E402
 from dcmviz.dashboard.preview import preview_data  # noqa: E402
 from dcmviz.gait import plan_from_config  # noqa: E402
-from dcmviz.robots import get_spec  # noqa: E402
+from dcmviz.robots import load_robot  # noqa: E402
 
 PRESETS = Path(__file__).resolve().parents[1] / "presets"
 
@@ -44,7 +44,7 @@ def dash() -> Iterator[Dashboard]:
 def drain(d: Dashboard) -> None:
     """Apply the commands the callbacks posted to the (not running) simulation loop, and draw
     the walked plan as the plan view's thread would."""
-    d.loop._handle_commands()
+    d.loop.pump()
     d.preview.update(d.loop.snapshot)
 
 
@@ -62,7 +62,7 @@ def test_slider_ranges_are_what_validation_accepts() -> None:
     from dcmviz.dashboard.gui import ALL_SLIDERS, ROBOT_BOUNDS
 
     for robot in ("talos", "g1"):
-        spec = get_spec(robot)
+        spec = load_robot(robot).spec
         for slider in ALL_SLIDERS:
             if (slider.section, slider.name) not in ROBOT_BOUNDS:
                 continue
@@ -75,7 +75,7 @@ def test_slider_ranges_are_what_validation_accepts() -> None:
                 data[slider.section][slider.name] = round(beyond, 6)
                 with pytest.raises(ConfigError):
                     config_from_dict(data)
-    talos = get_spec("talos")
+    talos = load_robot("talos").spec
     assert slider_range_of("gait", "step_length", talos) == (-0.45, 0.45)
     assert slider_range_of("gait", "step_width", talos) == (0.14, 0.5)
     assert slider_range_of("dcm", "b", talos) == (0.271, 0.302)
@@ -144,7 +144,7 @@ def test_preview_is_the_walked_plan_from_the_measured_feet(dash: Dashboard) -> N
     drain(dash)
     session = dash.loop.session
     drawn = start_feet_drawn(dash)
-    spacing = get_spec("talos").foot_spacing_m
+    spacing = load_robot("talos").spec.foot_spacing_m
     for side, sign in (("left", 1.0), ("right", -1.0)):
         np.testing.assert_allclose(drawn[side], session.plan.start_feet[side].position)
         assert drawn[side][1] == pytest.approx(sign * spacing / 2, abs=1e-6)  # measured
@@ -159,7 +159,7 @@ def test_g1_preset_previews_its_walked_plan(dash: Dashboard) -> None:
     walked = dash.loop.session.plan
     assert dash.preview.plan is walked and dash.config.robot.model == "g1"
     np.testing.assert_allclose(dash.preview.data.waypoints, walked.preview.waypoints)
-    assert dash.preview.data.foot_length == get_spec("g1").foot_length_m
+    assert dash.preview.data.foot_length == load_robot("g1").spec.foot_length_m
 
 
 def test_gain_change_keeps_the_walk_and_the_drawn_plan(dash: Dashboard) -> None:
@@ -175,12 +175,12 @@ def test_gain_change_keeps_the_walk_and_the_drawn_plan(dash: Dashboard) -> None:
     assert dash.preview.wait(dash.version, timeout=0.0)  # this version is shown ...
     assert dash.preview.draws == draws and dash.preview.drawn_plan_version == version  # as is
     snap = dash.loop.snapshot
-    assert snap.note == "gains changed (walk continues)"
+    assert snap.status.note == "gains changed (walk continues)"
     assert "gains changed (walk continues)" in dash.view.status.text(snap, 40.0, 0.0)
     assert dash.editor.on_field_change("gait", "t_ss", 0.8)
     drain(dash)
     snap = dash.loop.snapshot
-    assert snap.note == "restarted: gait changed" and session.t == 0.0
+    assert snap.status.note == "restarted: gait changed" and session.t == 0.0
     assert dash.preview.drawn_plan_version == snap.plan_version != version
 
 
@@ -208,7 +208,7 @@ def test_continuous_mode_redraws_the_receding_horizon(dash: Dashboard) -> None:
     first = dash.preview.plan
     for _ in range(int(3.0 / session.backend.control_dt)):
         session.step()
-    dash.loop._publish()
+    dash.loop.pump()
     assert dash.preview.update(dash.loop.snapshot)  # the horizon moved: drawn again
     assert dash.preview.plan is session.plan is not first
     assert dash.preview.data.t[0] == pytest.approx(session.plan.t0)
@@ -335,7 +335,7 @@ def test_fall_notifies_and_resets() -> None:
         while d.loop.session.fell and time.time() < deadline:
             time.sleep(0.05)
         assert not d.loop.session.fell  # reset after the pause, still running
-        assert d.loop._thread.is_alive()
+        assert d.loop.running()
     finally:
         d.stop()
         server.stop()
@@ -355,7 +355,7 @@ def test_record_returns_rerun_bytes(dash: Dashboard) -> None:
 def test_preview_data_matches_plan() -> None:
     config = Config().replace(gait={"n_steps": 20})
     plan = plan_from_config(config)
-    data = preview_data(plan, get_spec("talos"))
+    data = preview_data(plan, load_robot("talos").spec)
     # continuous VRP and DCM, sampled at phase boundaries too
     assert np.all(np.diff(data.t) >= 0)
     np.testing.assert_allclose(data.dcm[0], plan.preview.dcm(0.0))
@@ -398,16 +398,18 @@ def test_mode_robot_and_backend_switch(dash: Dashboard) -> None:
     assert dash.editor.on_field_change("robot", "model", "g1")  # Talos's b = 0.30 s is too high
     drain(dash)
     assert dash.loop.session.config.robot.model == "g1"
-    lo, hi = get_spec("g1").b_range_s
+    lo, hi = load_robot("g1").spec.b_range_s
     assert lo <= dash.config.dcm.b <= hi and dash.config.dcm.b == pytest.approx(
         0.261
     )  # on the grid
     b = dash.controls.handles[("dcm", "b")]
     assert b.value == dash.config.dcm.b
     assert (b.min, b.max) == (0.239, 0.263)  # the slider follows the robot
-    assert dash.push_panel.gui_push_body.options == tuple(get_spec("g1").bodies)
-    dash.loop._publish()
-    assert dash.loop.snapshot.robot == "g1" and dash.loop.snapshot.backend == "lip"
+    assert dash.push_panel.gui_push_body.options == tuple(load_robot("g1").spec.bodies)
+    dash.loop.pump()
+    assert (
+        dash.loop.snapshot.status.robot.name == "g1" and dash.loop.snapshot.status.backend == "lip"
+    )
 
 
 def test_play_pause_reset_speed(dash: Dashboard) -> None:
@@ -480,10 +482,10 @@ def test_export_with_dragged_footsteps_loads_back(dash: Dashboard) -> None:
 
 def test_robot_meshes_push_the_body_they_belong_to() -> None:
     from dcmviz.dashboard.robot_view import push_body
-    from dcmviz.visual import robot_visual
+    from dcmviz.robots import load_robot
 
-    visual = robot_visual("talos")
-    bodies = get_spec("talos").bodies
+    visual = load_robot("talos").visual
+    bodies = load_robot("talos").spec.bodies
     by_link = {m.link: push_body(m.ancestors, bodies) for m in visual.meshes}
     assert by_link["arm_left_4_link"] == "torso" and by_link["head_2_link"] == "torso"
     assert (
@@ -496,15 +498,17 @@ def test_robot_view_moves_only_what_moved() -> None:
     """Meshes are added once, nested along the kinematic tree; a bent knee sends one rotation
     (the shank's, relative to the thigh) and the scene tree composes the same world poses as
     the visual model's kinematics."""
-    from dcmviz.backend import RobotPose
     from dcmviz.dashboard.robot_view import RobotView, quat_multiply, quat_rotate
-    from dcmviz.visual import robot_visual
+    from dcmviz.robots import load_robot
+    from dcmviz.robots.pose import RobotPose
 
     server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
     try:
-        visual = robot_visual("talos")
+        visual = load_robot("talos").visual
         clicks = []
-        view = RobotView(server, visual, on_body_click=lambda body, event: clicks.append(body))
+        view = RobotView(
+            server, load_robot("talos"), on_body_click=lambda body, event: clicks.append(body)
+        )
         assert len(view.meshes) == len(visual.meshes)
         pose = RobotPose(np.array([0.1, 0.0, 1.0]), np.array([1.0, 0.0, 0.0, 0.0]), {})
         view.update(pose)
@@ -586,7 +590,7 @@ def test_camera_follow_climbs_with_the_ground_not_with_the_gait() -> None:
         while session.t < 9.0:
             for _ in range(20):
                 session.step()
-            d.loop._publish()
+            d.loop.pump()
             d.view._follow(d.loop.snapshot)
             tick = d.loop.snapshot.tick
             lower = min(f[2] for s, f in tick.state.feet.items() if tick.command.support[s])
@@ -697,11 +701,11 @@ def test_a_tab_is_sent_only_what_changed_each_frame() -> None:
             ws.send(CAMERA)
             assert wait_for(lambda: not d.loop.held and d.loop.session.t > 1.2)  # stepping
             i0, frames0 = len(received), d.view.frames_drawn
-            landed0 = len(d.loop.snapshot.realised_steps)
+            landed0 = len(d.loop.snapshot.tick.realised_steps)
             assert wait_for(lambda: d.view.frames_drawn - frames0 >= 90)
             messages = received[i0:]
             frames = d.view.frames_drawn - frames0 + 3  # (frames in flight at either end)
-            landed = len(d.loop.snapshot.realised_steps) - landed0
+            landed = len(d.loop.snapshot.tick.realised_steps) - landed0
         assert d.loop.session.t > 1.2  # (the window did not span a loop of the plan)
         by = {}
         for m in messages:

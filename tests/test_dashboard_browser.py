@@ -299,7 +299,7 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path) -> None:
     dashboard, _ = app
     dashboard.push_panel.gui_push_magnitude.value = 100.0  # its own, whatever ran before
     dashboard.sim_panel.on_play(False)
-    assert wait_for(lambda: not dashboard.loop.snapshot.playing)
+    assert wait_for(lambda: not dashboard.loop.snapshot.status.playing)
     client = list(dashboard.server.get_clients().values())[-1]
     com = np.asarray(dashboard.loop.snapshot.com)
     position = com + np.array([-2.0, -0.6, 0.4])  # behind: view ≈ +x

@@ -176,7 +176,7 @@ def test_fall_is_shown_once_with_its_likely_cause(running) -> None:
     assert wait_for(lambda: len(d.server.get_clients()) == 2)  # both receive every pop-up
     try:
         for n in (1, 2):
-            assert wait_for(lambda: not d.loop.snapshot.fallen and d.loop.session.t > 0.5)
+            assert wait_for(lambda: not d.loop.snapshot.status.fallen and d.loop.session.t > 0.5)
             d.loop.post(
                 "push", {"force": (0.0, 2000.0, 0.0), "duration": 0.5, "ramp": 0.0, "body": "torso"}
             )
@@ -185,7 +185,9 @@ def test_fall_is_shown_once_with_its_likely_cause(running) -> None:
         for t_ in tabs:
             visible = t_.visible_notifications({"Fall"})
             assert len(visible) == 1 and "Likely cause: the push" in visible[0]
-        assert wait_for(lambda: not d.loop.snapshot.fallen, timeout=5)  # reset after the pause
+        assert wait_for(
+            lambda: not d.loop.snapshot.status.fallen, timeout=5
+        )  # reset after the pause
         still_working(d, port, *tabs)
     finally:
         for t_ in tabs:

@@ -15,12 +15,12 @@ from dcmviz import GRAVITY
 from dcmviz.config import Config, config_from_dict, load_preset
 from dcmviz.gait import Footstep, build_plan, plan_footsteps, plan_from_config, timing_of
 from dcmviz.gait.feasibility import SUPPORT_MARGIN_M, check_plan
-from dcmviz.robots import get_spec
+from dcmviz.robots import load_robot
 from dcmviz.robots.geometry import hull_depth, rectangle_gap, soles_corners
 from dcmviz.run import main
 
 PRESETS = sorted(Path(__file__).parents[1].joinpath("presets").glob("*.toml"))
-TALOS = get_spec("talos")
+TALOS = load_robot("talos").spec
 
 
 # -- independent geometry: point in rectangle, point in triangle (Carathéodory) -----------------
@@ -148,13 +148,14 @@ def test_rectangle_gap_against_brute_force():
 def test_shipped_presets_are_feasible(path):
     config = load_preset(path)
     plan = plan_from_config(config)
-    warnings = check_plan(plan, get_spec(config.robot.model), config)
+    warnings = check_plan(plan, load_robot(config.robot.model).spec, config)
     if any(step.position[2] != 0.0 for step in plan.steps):  # stairs: the legs reach down half
         # a rise, the CoM walks lower
         warnings = [w for w in warnings if "walk lowers the CoM" not in w.message]
     assert warnings == []
     assert all(
-        _support_ok(plan, i, get_spec(config.robot.model)) for i in range(len(plan.waypoints))
+        _support_ok(plan, i, load_robot(config.robot.model).spec)
+        for i in range(len(plan.waypoints))
     )
 
 
@@ -305,7 +306,7 @@ def test_stairs_from_feet_settled_in_the_contact_are_not_too_high():
     """The walker plans from the measured feet, a millimetre deep in MuJoCo's soft contact: the
     0.15 m stairs of stairs_up measure 0.151 m from them, within Talos's 0.15 m; 0.16 m does not."""
     config = load_preset(PRESETS[0].parent / "stairs_up.toml")
-    spec = get_spec(config.robot.model)
+    spec = load_robot(config.robot.model).spec
     feet, _ = plan_footsteps(config.gait)
     sunk = {s: f.moved(f.position - [0.0, 0.0, 0.001]) for s, f in feet.items()}
     plan = plan_from_config(config, start_feet=sunk)

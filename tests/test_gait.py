@@ -18,7 +18,7 @@ from dcmviz.gait import (
     plan_from_config,
     timing_of,
 )
-from dcmviz.robots import clamp_to_reach, get_spec, reach_problem
+from dcmviz.robots import clamp_to_reach, load_robot, reach_problem
 
 
 def test_waypoints_sit_dz_above_the_feet_and_d1_d2_d3_hold():
@@ -219,7 +219,7 @@ def test_straight_walking_is_bit_identical(first):
 def test_turning_steps_stay_inside_reach_in_both_modes(robot, lengths, widths):
     """Up to ±0.3 rad per step: every step ≥ the robot's minimum width from its stance foot (in the
     stance foot's frame), inside its reach, soles apart; clamp_to_reach moves none of them."""
-    spec = get_spec(robot)
+    spec = load_robot(robot).spec
     b = spec.b_nominal_s
     for turn, L, w in itertools.product((-0.3, -0.2, -0.05, 0.05, 0.2, 0.3), lengths, widths):
         gait = {"n_steps": 7, "step_length": L, "step_width": w, "turn": turn}

@@ -21,8 +21,7 @@ from dcmviz.config import Config
 from dcmviz.gait import plan_from_config
 from dcmviz.gait.feasibility import HEIGHT_TOLERANCE_M, check_plan
 from dcmviz.gait.height import walk_height_m
-from dcmviz.robots import get_spec
-from dcmviz.sim.robots import load_robot
+from dcmviz.robots import load_robot
 
 PITCH = {
     "talos": ("leg_{s}_3_joint", "leg_{s}_4_joint", "leg_{s}_5_joint"),
@@ -50,7 +49,7 @@ def _posture(robot, straighten: float, theta: float) -> tuple[float, float]:
 
 @pytest.mark.parametrize("name", ["talos", "g1"])
 def test_walk_height_matches_the_kinematics(name):
-    robot, spec = load_robot(name), get_spec(name)
+    robot, spec = load_robot(name), load_robot(name).spec
     # straighten the knees until the CoM stands at the highest walking height
     a = brentq(lambda a: _posture(robot, a, 0.0)[0] - spec.max_com_height_m, -0.5, 0.6)
     for theta in (0.1, 0.2, 0.3):
@@ -61,7 +60,7 @@ def test_walk_height_matches_the_kinematics(name):
 
 
 def test_long_steps_at_the_top_height_walk_lower_and_say_so():
-    spec = get_spec("talos")
+    spec = load_robot("talos").spec
     b = math.sqrt(spec.max_com_height_m / GRAVITY)
     config = Config().replace(
         robot={"model": "talos"}, gait={"step_length": 0.40, "step_width": 0.2}, dcm={"b": b}

@@ -28,16 +28,16 @@ def test_a_reset_that_raises_rebuilds_the_session() -> None:
     try:
         assert wait_for(lambda: loop.session is not broken)
         assert wait_for(lambda: loop.session.t > 0.5)  # the new session walks
-        assert loop._thread.is_alive()
+        assert loop.running()
         assert any("restarts" in m for _, m in events)
     finally:
         loop.stop()
 
 
 def test_realised_footsteps_are_rebuilt_only_when_a_foot_lands() -> None:
-    """A snapshot's realised footsteps (up to session.REALISED_IN_TICK, built at every publish
-    before: ~23 µs CPU for 64, a cost per tick that grew with the steps walked) are the same tuple
-    from one publish to the next until a foot lands, and then equal the session's records."""
+    """A tick's realised footsteps (up to session.REALISED_IN_TICK; a cost per tick that grew
+    with the steps walked before) are the same tuple from one publish to the next until a foot
+    lands, and then equal the session's records."""
     import numpy as np
 
     config = Config().replace(sim={"backend": "lip"}, gait={"mode": "continuous"})
@@ -48,8 +48,8 @@ def test_realised_footsteps_are_rebuilt_only_when_a_foot_lands() -> None:
         before = session.steps_completed
         session.step()
         landed += session.steps_completed - before
-        loop._publish()
-        steps = loop.snapshot.realised_steps
+        loop.pump()
+        steps = loop.snapshot.tick.realised_steps
         if steps is not last:
             rebuilt += 1
             last = steps
@@ -62,5 +62,5 @@ def test_realised_footsteps_are_rebuilt_only_when_a_foot_lands() -> None:
     assert rebuilt == 1 + 6  # the first publish after the reset, then once per landing
     session.reset()  # a reset empties them
     session.step()
-    loop._publish()
-    assert loop.snapshot.realised_steps == ()
+    loop.pump()
+    assert loop.snapshot.tick.realised_steps == ()

@@ -20,13 +20,14 @@ import weakref
 import numpy as np
 import pinocchio as pin
 
-import dcmviz.session as session_module
-import dcmviz.walker as walker_module
-from dcmviz.backend import RobotPose
+import dcmviz.gait.walk as walker_module
+import dcmviz.session.session as session_module
 from dcmviz.config import Config
+from dcmviz.gait import StepRecord
+from dcmviz.robots import load_robot
+from dcmviz.robots.pose import RobotPose
+from dcmviz.robots.visual import RobotVisual
 from dcmviz.session import Session
-from dcmviz.visual import RobotVisual, urdf_path
-from dcmviz.walker import StepRecord
 
 
 def test_robot_visual_frees_pinocchio_geometry_and_poses_like_it(monkeypatch) -> None:
@@ -39,17 +40,18 @@ def test_robot_visual_frees_pinocchio_geometry_and_poses_like_it(monkeypatch) ->
         return geometry
 
     monkeypatch.setattr(pin, "buildGeomFromUrdf", tracked)
-    visual = RobotVisual("talos")
+    talos = load_robot("talos")
+    visual = RobotVisual("talos", talos.model)
     gc.collect()
     assert len(built) == 1 and built[0]() is None  # the geometry model (and its BVHs) is gone
     monkeypatch.undo()
 
     # independent: Pinocchio's own geometry placements at a random posture and base
-    from dcmviz.sim.robots import robots_dir
+    from dcmviz.robots import example_robot_data_dir
 
-    share = os.path.dirname(os.path.dirname(robots_dir()))
+    share = os.path.dirname(os.path.dirname(example_robot_data_dir()))
     geometry = pin.buildGeomFromUrdf(
-        visual.model, urdf_path("talos"), pin.GeometryType.VISUAL, package_dirs=[share]
+        visual.model, talos.file.model_path, pin.GeometryType.VISUAL, package_dirs=[share]
     )
     geometry_data, data = pin.GeometryData(geometry), visual.model.createData()
     rng = np.random.default_rng(14)
@@ -95,7 +97,7 @@ def test_endless_walk_keeps_its_latest_footsteps_and_pushes(monkeypatch) -> None
         sign = -sign
         s.run(0.5)
     assert not s.fell
-    records = s.walker.records
+    records = s.walker.status.records
     assert len(records) == 6  # the latest six of 20 and more
     assert [r.step for r in records] == list(range(s.steps_completed - 6, s.steps_completed))
     assert _live(StepRecord) - before <= 6

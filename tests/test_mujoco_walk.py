@@ -9,9 +9,10 @@ import pytest
 
 from dcmviz import GRAVITY
 from dcmviz.config import apply_overrides, load_preset
+from dcmviz.robots import load_robot
 from dcmviz.sim.mujoco_sim import MujocoBackend
-from dcmviz.state import FootTarget, MeasuredState, WalkerCommand
 from dcmviz.walker import Walker
+from dcmviz.walker.state import FootTarget, MeasuredState, WalkerCommand
 
 E_Z = np.array([0.0, 0.0, 1.0])
 
@@ -43,7 +44,7 @@ def balance_command(
 @pytest.mark.slow
 @pytest.mark.parametrize("robot", ["talos", "g1"])
 def test_stands_three_seconds(robot):
-    backend = MujocoBackend(robot)
+    backend = MujocoBackend(load_robot(robot))
     state = backend.reset()
     xi_d = state.com.copy()
     feet = {s: p.copy() for s, p in state.feet.items()}
@@ -63,9 +64,9 @@ def rollout(preset, duration: float | None = None, overrides: list[str] | None =
     """Run a preset (file name or Config) through Walker + MujocoBackend with its pushes."""
     config = preset if not isinstance(preset, str) else load_preset(PRESETS / preset)
     config = apply_overrides(config, overrides or [])
-    backend = MujocoBackend(config.robot.model)
+    backend = MujocoBackend(load_robot(config.robot.model))
     state = backend.reset()
-    walker = Walker(config, mass=backend.mass, dt=backend.control_dt)
+    walker = Walker(config, backend.spec, mass=backend.mass, dt=backend.control_dt)
     walker.reset(state)
     duration = config.sim.duration if duration is None else duration
     max_err = 0.0
@@ -91,7 +92,7 @@ def test_default_walk_completes():
     assert not fell
     assert walker.steps_completed == 10
     assert max_err < 0.03
-    for record in walker.records[:-1]:  # the closing step is adjusted by the walker
+    for record in walker.status.records[:-1]:  # the closing step is adjusted by the walker
         assert np.linalg.norm(record.adjustment[:2]) < 0.02
 
 
@@ -111,7 +112,7 @@ def test_g1_walks():
 
 
 def test_external_force_input_is_validated():
-    backend = MujocoBackend("talos")
+    backend = MujocoBackend(load_robot("talos"))
     with pytest.raises(ValueError, match="torso"):
         backend.set_external_force("tail", np.zeros(3))
     with pytest.raises(ValueError, match="finite"):
@@ -127,9 +128,9 @@ def _survives_push(impulse_ns: float, step_adjustment: bool) -> bool:
         load_preset(PRESETS / "walk_forward.toml"),
         [f"control.step_adjustment={flag}", "control.observer=false"],
     )
-    backend = MujocoBackend("talos")
+    backend = MujocoBackend(load_robot("talos"))
     state = backend.reset()
-    walker = Walker(config, mass=backend.mass, dt=backend.control_dt)
+    walker = Walker(config, backend.spec, mass=backend.mass, dt=backend.control_dt)
     walker.reset(state)
     t_push, duration = 3.05, 0.2  # single support of step 3: 2.8 s .. 3.5 s
     while state.t < t_push + 3.0:
@@ -171,7 +172,7 @@ def test_tug_of_war_needs_the_observer():
 
 @pytest.mark.slow
 def test_a_hard_push_is_a_fall_and_reset_stands_again():
-    backend = MujocoBackend("talos")
+    backend = MujocoBackend(load_robot("talos"))
     state = backend.reset()
     xi_d = state.com.copy()
     feet = {s: p.copy() for s, p in state.feet.items()}
@@ -198,9 +199,9 @@ def test_fast_presets_walk_at_speed(preset, speed_m_s):
     distance between the mid-feet before the first step and after the last one, over the time
     from the first lift-off to the last touchdown (the walker's committed footsteps)."""
     config = load_preset(PRESETS / preset)
-    backend = MujocoBackend(config.robot.model)
+    backend = MujocoBackend(load_robot(config.robot.model))
     state = backend.reset()
-    walker = Walker(config, mass=backend.mass, dt=backend.control_dt)
+    walker = Walker(config, backend.spec, mass=backend.mass, dt=backend.control_dt)
     plan = walker.reset(state)
     start = 0.5 * (state.feet["left"] + state.feet["right"])
     while state.t < plan.t_end + 0.5:
@@ -208,5 +209,5 @@ def test_fast_presets_walk_at_speed(preset, speed_m_s):
         assert not backend.fell()
     assert walker.steps_completed >= 10
     end = 0.5 * (state.feet["left"] + state.feet["right"])
-    walking_s = walker.records[-1].t - plan.swing_window(0)[0]
+    walking_s = walker.status.records[-1].t - plan.swing_window(0)[0]
     assert np.linalg.norm((end - start)[:2]) / walking_s >= speed_m_s

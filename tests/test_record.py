@@ -10,9 +10,9 @@ import rerun.chunk
 
 from dcmviz.config import load_preset
 from dcmviz.record import Recorder, record_session
+from dcmviz.robots import load_robot
 from dcmviz.run import main
 from dcmviz.session import Session
-from dcmviz.visual import robot_visual
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -81,7 +81,7 @@ def test_runner_rrd_with_mujoco_robot(tmp_path: Path) -> None:
     preset = str(ROOT / "presets" / "walk_forward.toml")
     assert main([preset, "--sim", "mujoco", "--duration", "0.5", "--rrd", str(path)]) == 0
     rows = rows_by_entity(path)
-    meshes = robot_visual("talos").meshes
+    meshes = load_robot("talos").visual.meshes
     for mesh in meshes:
         entity = f"/world/robot/talos/{mesh.name}"
         assert rows[entity] == pytest.approx(50 + 1, abs=1), entity  # poses + the mesh itself
@@ -111,4 +111,4 @@ def test_recorder_reads_only_ticks_spec_and_plan(tmp_path: Path) -> None:
     recorder.stop()
     rows = rows_by_entity(tmp_path / "facade.rrd")
     assert rows["/world/points"] == pytest.approx(20, abs=1)
-    assert rows[f"/world/robot/talos/{robot_visual('talos').meshes[0].name}"] >= 20
+    assert rows[f"/world/robot/talos/{load_robot('talos').visual.meshes[0].name}"] >= 20

@@ -7,9 +7,9 @@ import pytest
 
 from dcmviz import recovery
 from dcmviz.config import Config
-from dcmviz.gait import Footstep, SwingTrajectory, plan_from_config, timing
+from dcmviz.gait import Footstep, plan_from_config
 from dcmviz.recovery import Candidate
-from dcmviz.robots import get_spec
+from dcmviz.robots import load_robot
 from dcmviz.session import Session
 
 
@@ -39,12 +39,12 @@ def test_qp_equals_dense_weighted_least_squares_when_constraints_are_inactive(or
     k, t, b = 3, plan.phase_start(6) + 0.1, config.dcm.b
     cands = candidates_from_dense(plan, k, t)
     error = np.array([0.004, -0.006, 0.0])  # small: no reach limit is touched
-    got = recovery.solve(cands, plan.stance_for(k), error, get_spec("talos"), 0.3, b)
+    got = recovery.solve(cands, plan.stance_for(k), error, load_robot("talos").spec, 0.3, b)
     # dense: minimise Σ ω_j |Δv_j|² + ρ |ξ̃ − C Δv|² as one stacked least-squares problem
     lead = np.array([c.lead_time_s for c in cands])
     omega = np.exp(np.maximum(lead - lead[0], 0.0) / b)
     C = np.hstack([c.leverage * np.eye(2) for c in cands])
-    rho = recovery.CONDITION_WEIGHT
+    rho = recovery.qp.CONDITION_WEIGHT
     M = np.vstack([np.sqrt(rho) * C, np.diag(np.repeat(np.sqrt(omega), 2))])
     rhs = np.concatenate([np.sqrt(rho) * error[:2], np.zeros(2 * len(cands))])
     dense = np.linalg.lstsq(M, rhs, rcond=None)[0].reshape(-1, 2)
@@ -58,7 +58,7 @@ def test_qp_equals_dense_weighted_least_squares_when_constraints_are_inactive(or
 def test_reach_limits_hold_and_the_next_footstep_takes_the_rest() -> None:
     config = Config()
     plan = plan_from_config(config)
-    spec = get_spec("talos")
+    spec = load_robot("talos").spec
     k = 3  # a footstep of the right foot (first swing is the left one)
     t = plan.phase_start(2 * k + 2) + 0.1
     cands = candidates_from_dense(plan, k, t)
@@ -99,7 +99,7 @@ def test_tick_shows_the_footstep_after_the_adjusted_one_when_it_takes_the_rest(s
     assert max(step.position[1] for step in seen) > 0.085 + 0.05  # the left foot steps out
 
 
-# -- honest leverages, step timing (issue 11, second part) -------------------------------------
+# -- honest leverages (issue 11, second part) ---------------------------------------------------
 
 
 def test_cop_capacity_is_what_a_held_cop_offset_removes() -> None:
@@ -121,7 +121,7 @@ def test_capacity_makes_the_later_footsteps_take_what_the_cop_cannot() -> None:
     own-instant leverages leave far more to the CoP."""
     config = Config()
     plan = plan_from_config(config)
-    spec = get_spec("talos")
+    spec = load_robot("talos").spec
     k = 3
     t = plan.phase_start(2 * k + 2) + 0.35  # mid single support of footstep k
     local = t - plan.t0
@@ -145,59 +145,6 @@ def test_capacity_makes_the_later_footsteps_take_what_the_cop_cannot() -> None:
     assert eps_loose[0] > 0.02 + 1e-3  # the paper's persistence condition alone: not capturable
 
 
-def test_retimed_order_0_phase_follows_the_closed_form() -> None:
-    """ξ(T) = v + e^{T/b}(ξ_0 − v) over a re-timed single support (order 0: constant VRP)."""
-    config = Config().replace(dcm={"order": 0})
-    plan = plan_from_config(config)
-    phase = 8  # a single support
-    assert plan.phase_kind[phase] == "ss"
-    durations = plan.preview.durations.copy()
-    durations[phase] = 0.45
-    durations[phase + 1] = 0.5
-    p = timing.retimed(plan, durations)
-    t0 = float(p.preview.phase_start_times[phase])
-    v = p.preview.vrp(t0 + 0.1)
-    got = p.preview.dcm(t0 + 0.45 - 1e-9)
-    want = timing.dcm_after(p.preview.dcm(t0), v, 0.45, config.dcm.b)
-    np.testing.assert_allclose(got, want, atol=1e-7)
-    assert p.steps == plan.steps and np.array_equal(p.waypoints, plan.waypoints)
-
-
-def test_candidates_respect_the_limits() -> None:
-    plan = plan_from_config(Config())
-    phase = 8
-    t_phase = 0.5
-    local = float(plan.preview.phase_start_times[phase]) + t_phase
-    cands = timing.timing_candidates(plan, local)
-    assert np.array_equal(cands[0], plan.preview.durations)  # nominal first
-    for d in cands:
-        assert d[phase] >= t_phase + timing.MIN_REMAINING_S - 1e-9 or d[phase] == 0.7
-        assert d[phase + 1] >= timing.MIN_DS_S and d[phase + 2] >= timing.MIN_SS_S
-        np.testing.assert_array_equal(d[:phase], plan.preview.durations[:phase])
-        np.testing.assert_array_equal(d[phase + 3 :], plan.preview.durations[phase + 3 :])
-
-
-def test_a_shortened_swing_does_not_jump() -> None:
-    """Re-timing mid-swing keeps position and velocity (horizontal C², height C⁰ with its rate
-    scaled) and lands on the target at the new touchdown."""
-    lift = Footstep("right", np.array([0.0, -0.085, 0.0]), 0.0)
-    touch = Footstep("right", np.array([0.4, -0.085, 0.0]), 0.0)
-    swing = SwingTrajectory.between(1.0, 1.7, lift, touch)
-    t, dt = 1.3, 1e-4
-    short = swing.retime(t, 1.5)
-    p0, v0, a0, *_ = swing.sample(t)
-    p1, v1, a1, *_ = short.sample(t)
-    np.testing.assert_allclose(p1, p0, atol=1e-9)
-    np.testing.assert_allclose(v1[:2], v0[:2], atol=1e-9)
-    np.testing.assert_allclose(a1[:2], a0[:2], atol=1e-6)
-    assert abs(v1[2] - v0[2] * 0.7 / ((1.5 - t) / (1.7 - t) * 0.7)) < 1.0  # scaled, bounded
-    pt, vt, *_ = short.sample(1.5)
-    np.testing.assert_allclose(pt, touch.position, atol=1e-9)
-    np.testing.assert_allclose(vt, 0.0, atol=1e-9)
-    path = np.array([short.sample(s)[0] for s in np.arange(t, 1.5, dt)])
-    assert np.max(np.linalg.norm(np.diff(path, axis=0), axis=1)) < 3.0 * dt  # < 3 m/s
-
-
 def _survives(strategy: str, impulse: float, angle_deg: float) -> bool:
     config = Config().replace(
         sim={"backend": "lip"},
@@ -217,105 +164,41 @@ def test_step_timing_walks_nominal_undisturbed_and_catches_a_push_towards_the_st
     s = Session(config, backend="lip")
     s.run(s.plan.duration + 1.0)
     assert not s.fell and s.metrics.max_dcm_error_m < 1e-3
-    np.testing.assert_array_equal(s.walker.plan.preview.durations, s.walker._nominal_durations)
+    np.testing.assert_array_equal(s.plan.preview.durations, s.nominal_plan.preview.durations)
     # towards the stance foot (left, step 4 swings the right foot): the paper's single step
     # cannot cross the stance leg; a short in-place step and a quick wide one can
     assert not _survives("next_step", 34.0, 90.0)
     assert _survives("multi_step_timing", 34.0, 90.0)
 
 
-# -- capture shortfall, priority projection (issue 11, third part) ------------------------------
-
-
-def _integrate_dcm(xi0: np.ndarray, vrp, duration: float, n: int = 4000) -> np.ndarray:
-    """RK4 of ξ̇ = (ξ − v(t))/b with b = 0.3 (eq. 2), independent of the closed forms."""
-    b, h = 0.3, duration / n
-    xi = np.asarray(xi0, float).copy()
-    for i in range(n):
-        t = i * h
-        f = lambda s, x: (x - vrp(s)) / b  # noqa: E731
-        k1 = f(t, xi)
-        k2 = f(t + h / 2, xi + h / 2 * k1)
-        k3 = f(t + h / 2, xi + h / 2 * k2)
-        k4 = f(t + h, xi + h * k3)
-        xi = xi + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return xi
-
-
-def test_reachable_dcm_is_what_the_extreme_cops_reach() -> None:
-    """The interval ends of timing.reachable_dcm are the DCMs that the CoP held at the supports'
-    opposite edges reaches (numerical integration), and no CoP inside the supports, however it
-    switches, leaves the interval (random piecewise-constant CoPs)."""
-    b = 0.3
-    xi0 = np.array([0.10, 0.14])
-    segs = [
-        (0.15, np.array([0.5, 0.02]), np.array([0.7, 0.15])),  # the rest of a single support
-        (0.1, np.array([0.5, -0.12]), np.array([0.9, 0.15])),  # double support
-        (0.35, np.array([0.69, -0.12]), np.array([0.9, 0.01])),  # the other foot's support
-    ]
-    lo, hi = timing.reachable_dcm(xi0, segs, b)
-
-    def through(pieces) -> np.ndarray:  # integrated piece by piece (the CoP jumps between)
-        xi = xi0
-        for duration, cop in pieces:
-            xi = _integrate_dcm(xi, lambda _t, cop=cop: cop, duration, n=400)
-        return xi
-
-    np.testing.assert_allclose(lo, through([(d, top) for d, _, top in segs]), atol=1e-9)
-    np.testing.assert_allclose(hi, through([(d, low) for d, low, _ in segs]), atol=1e-9)
-    rng = np.random.default_rng(3)
-    for _ in range(5):  # any CoPs inside the supports, switching 3 times per phase
-        pieces = []
-        for d, low, top in segs:
-            cuts = np.diff(np.concatenate([[0.0], np.sort(rng.uniform(0, d, 2)), [d]]))
-            pieces += [(c, low + rng.uniform(0, 1, 2) * (top - low)) for c in cuts]
-        got = through(pieces)
-        assert np.all(got >= lo - 1e-9) and np.all(got <= hi + 1e-9)
-    region = (np.array([0.8, 0.3]), np.array([1.0, 0.45]))
-    short = timing.capture_shortfall(xi0, segs, region, b)
-    np.testing.assert_allclose(short, np.maximum(np.maximum(lo - region[1], region[0] - hi), 0))
-
-
-def test_retimed_plan_dcm_is_the_integrated_dcm_of_its_vrp() -> None:
-    """A plan re-timed in three phases at once (order 5): its closed-form ξ_ref at each new
-    touchdown equals ξ integrated numerically through the re-timed VRP (eqs. 2, 10, 22)."""
-    config = Config()
-    plan = plan_from_config(config)
-    phase = 8
-    durations = plan.preview.durations.copy()
-    durations[phase : phase + 3] = [0.45, 0.05, 0.42]
-    p = timing.retimed(plan, durations)
-    start = float(p.preview.phase_start_times[phase])
-    end = float(p.preview.phase_start_times[phase + 3])
-    got = _integrate_dcm(p.preview.dcm(start), lambda s: p.preview.vrp(start + s), end - start)
-    np.testing.assert_allclose(got, p.preview.dcm(end), atol=1e-7)
-    assert np.linalg.norm(p.preview.dcm(end) - plan.preview.dcm(end)) > 1e-3  # it did change
+# -- priority projection (issue 11, third part) ------------------------------------------------
 
 
 def test_a_vrp_outside_the_support_keeps_its_lateral_part() -> None:
     """In double support (stance ahead-left of a foot that just landed beside it) a VRP asked far
     out forward-left: the nearest point of the hull gives up most of its lateral part, the
     priority projection keeps the stance sole's outer edge (and is inside the hull)."""
+    from dcmviz.gait.terrain import Terrain
+    from dcmviz.recovery import MultiStepTiming
     from dcmviz.robots.geometry import convex_hull, project_to_polygon, sole_corners
 
-    config = Config().replace(control={"recovery": "multi_step_timing"})
-    s = Session(config, backend="lip")
-    w = s.walker
-    spec = w.spec
-    w.placed = {
+    spec = load_robot("talos").spec
+    strategy = MultiStepTiming(spec, Terrain(), 0.3, 0.005)
+    placed = {
         "left": Footstep("left", np.array([0.6, 0.085, 0.0]), 0.0),
         "right": Footstep("right", np.array([0.8, -0.055, 0.0]), 0.0),
     }
     v = np.array([1.0, 0.3, 0.9])
     hull = convex_hull(
         np.vstack([sole_corners(f.position, 0.0, spec.foot_length_m, spec.foot_width_m)
-                   for f in w.placed.values()])
+                   for f in placed.values()])
     )  # fmt: skip
     nearest, _ = project_to_polygon(v[:2], hull)
-    got = w._inside_support(v, {"left": True, "right": True})
+    got = strategy.shape_vrp(v, {"left": True, "right": True}, placed)
     assert project_to_polygon(got[:2], hull)[1] < 1e-9
     assert got[1] > nearest[1] + 0.05
     assert got[1] > 0.085 + 0.5 * spec.foot_width_m - 0.02
     assert got[2] == v[2]
     inside = np.array([0.7, 0.0, 0.9])
-    np.testing.assert_array_equal(w._inside_support(inside, {"left": True, "right": True}), inside)
+    both = {"left": True, "right": True}
+    np.testing.assert_array_equal(strategy.shape_vrp(inside, both, placed), inside)

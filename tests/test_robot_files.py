@@ -18,10 +18,8 @@ import pytest
 
 from dcmviz import GRAVITY
 from dcmviz.config import ConfigError, config_from_dict, load_preset
-from dcmviz.robots import BUILTIN_ROBOTS, RobotFileError, get_spec
-from dcmviz.robots.model import build_model
+from dcmviz.robots import BUILTIN_ROBOTS, SIDES, RobotFileError, example_robot_data_dir, load_robot
 from dcmviz.sim.mujoco_sim import MujocoBackend
-from dcmviz.sim.robots import SIDES, load_robot, robots_dir
 from dcmviz.walker import Walker
 
 G1_HANDS = "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf"
@@ -83,7 +81,7 @@ max_step_adjustment = 0.2
 
 
 def _write_robot(tmp_path: Path, text: str = ROBOT_FILE, name: str = "g1_hands.toml") -> Path:
-    shutil.copy(Path(robots_dir()) / G1_HANDS, tmp_path / "g1_hands.urdf")
+    shutil.copy(Path(example_robot_data_dir()) / G1_HANDS, tmp_path / "g1_hands.urdf")
     path = tmp_path / name
     path.write_text(text, encoding="utf-8")
     return path
@@ -95,9 +93,9 @@ def _urdf_mass(path: str) -> float:
 
 
 def _walk(config, duration: float) -> tuple[bool, Walker]:
-    backend = MujocoBackend(config.robot.model)
+    backend = MujocoBackend(load_robot(config.robot.model))
     state = backend.reset()
-    walker = Walker(config, mass=backend.mass, dt=backend.control_dt)
+    walker = Walker(config, backend.spec, mass=backend.mass, dt=backend.control_dt)
     walker.reset(state)
     while state.t < duration - 1e-9:
         force = np.zeros(3)
@@ -120,11 +118,11 @@ def test_a_robot_written_as_one_file_walks_six_steps(tmp_path):
     preset.write_text(PRESET.format(model=robot_path.as_posix()), encoding="utf-8")
     config = load_preset(preset)
     assert config.robot.model == robot_path.as_posix()
-    spec = get_spec(config.robot.model)
+    spec = load_robot(config.robot.model).spec
     assert spec.name == "g1_hands" and spec.name not in BUILTIN_ROBOTS
     # derived (nothing pinned): the URDF's masses (+ two 0.1 g sole links), b from the height
     assert spec.mass_kg == pytest.approx(_urdf_mass(str(tmp_path / "g1_hands.urdf")) + 2e-4)
-    assert spec.mass_kg > get_spec("g1").mass_kg + 1.0  # the hands
+    assert spec.mass_kg > load_robot("g1").spec.mass_kg + 1.0  # the hands
     assert spec.b_nominal_s == pytest.approx(math.sqrt(spec.com_height_m / GRAVITY))
     duration = 0.8 + 6 * 0.8 + 0.8 + 0.5
     fell, walker = _walk(config, duration)
@@ -134,17 +132,17 @@ def test_a_robot_written_as_one_file_walks_six_steps(tmp_path):
 
 @pytest.mark.parametrize("name", BUILTIN_ROBOTS)
 def test_derived_numbers_match_independent_computations(name):
-    rm = build_model(name)
+    rm = load_robot(name).model
     robot = load_robot(name)
     d = rm.derived
     added = sum(parent is not None for parent in rm.sole_parent.values())
     assert d.mass_kg == pytest.approx(_urdf_mass(rm.file.urdf_path) + added * 1e-4, rel=1e-9)
     # MuJoCo: CoM height above the soles and above their middle
-    data = mujoco.MjData(robot.mj_model)
-    data.qpos[:] = robot.qpos_mj(robot.q_nominal)
-    mujoco.mj_forward(robot.mj_model, data)
-    com = data.subtree_com[robot.mj_model.body(robot.root_body_name).id]
-    soles = np.array([data.site_xpos[robot.sole_sites[s]] for s in SIDES])
+    data = mujoco.MjData(robot.mujoco.model)
+    data.qpos[:] = robot.mujoco.qpos_mj(robot.q_nominal)
+    mujoco.mj_forward(robot.mujoco.model, data)
+    com = data.subtree_com[robot.mujoco.model.body(robot.mujoco.root_body_name).id]
+    soles = np.array([data.site_xpos[robot.mujoco.sole_sites[s]] for s in SIDES])
     assert com[2] - soles[:, 2].mean() == pytest.approx(d.com_height_m, abs=1e-9)
     np.testing.assert_allclose(com[:2], soles[:, :2].mean(axis=0), atol=1e-8)
     np.testing.assert_allclose(soles[:, 2], 0.0, atol=1e-8)
@@ -154,8 +152,8 @@ def test_derived_numbers_match_independent_computations(name):
         el = joints[name_j].find("limit")
         assert limit == pytest.approx(float(el.get("effort")))
         assert rm.limits[name_j].lower_rad == pytest.approx(float(el.get("lower")))
-        i = robot.mj_model.actuator(name_j).id
-        np.testing.assert_allclose(robot.mj_model.actuator_ctrlrange[i], [-limit, limit])
+        i = robot.mujoco.model.actuator(name_j).id
+        np.testing.assert_allclose(robot.mujoco.model.actuator_ctrlrange[i], [-limit, limit])
     spec = rm.spec
     lo, hi = spec.b_range_s
     assert GRAVITY * lo**2 == pytest.approx(spec.min_com_height_m)
@@ -166,15 +164,15 @@ def test_derived_numbers_match_independent_computations(name):
 def test_pinned_numbers_are_close_to_the_derived_ones():
     """Talos's file pins the numbers shipped before robots were files; the loader derives them
     independently (within 1 cm / 0.1 kg where the pin is a measurement, not a choice)."""
-    d, s = build_model("talos").derived, get_spec("talos")
+    d, s = load_robot("talos").model.derived, load_robot("talos").spec
     assert d.mass_kg == pytest.approx(s.mass_kg, abs=0.01)
     assert d.com_height_m == pytest.approx(s.com_height_m, abs=0.001)
     assert d.foot_spacing_m == pytest.approx(s.foot_spacing_m, abs=0.001)
     assert d.max_com_height_m == pytest.approx(s.max_com_height_m, abs=0.01)
     assert d.max_step_length_m == pytest.approx(s.max_step_length_m, abs=0.01)
     assert d.leg_length_m == pytest.approx(s.leg_length_m, abs=0.005)
-    g1 = get_spec("g1")  # the hip–ankle distance at the (pinned) highest CoM, from the model
-    d = build_model("g1").derived
+    g1 = load_robot("g1").spec  # the hip–ankle distance at the (pinned) highest CoM, from the model
+    d = load_robot("g1").model.derived
     assert g1.max_com_height_m - d.hip_below_com_m - d.ankle_above_sole_m == pytest.approx(
         g1.leg_length_m, abs=0.001
     )
@@ -184,7 +182,7 @@ def test_standing_posture_is_solved_for_a_requested_com_height(tmp_path):
     text = ROBOT_FILE.replace('name = "g1_hands"', 'name = "g1_low"') + (
         "\n[standing]\ncom_height_m = 0.62\n"
     )
-    rm = build_model(str(_write_robot(tmp_path, text, "g1_low.toml")))
+    rm = load_robot(str(_write_robot(tmp_path, text, "g1_low.toml"))).model
     import pinocchio as pin
 
     pm, q = rm.pin_model, rm.q_nominal
@@ -244,7 +242,7 @@ def test_a_bad_robot_file_is_refused_naming_the_key(tmp_path, old, new, words):
     assert old in ROBOT_FILE
     path = _write_robot(tmp_path, ROBOT_FILE.replace(old, new, 1), "bad.toml")
     with pytest.raises(RobotFileError) as err:
-        build_model(str(path))
+        load_robot(str(path))
     for word in words:
         assert word in str(err.value), str(err.value)
     # every entry point refuses it the same way: nothing half-loads
@@ -252,8 +250,6 @@ def test_a_bad_robot_file_is_refused_naming_the_key(tmp_path, old, new, words):
         config_from_dict({"robot": {"model": str(path)}})
     assert "robot.model" in str(err.value) and words[0] in str(err.value)
     with pytest.raises(ValueError, match="robot.model"):
-        get_spec(str(path))
-    with pytest.raises(ValueError):
         load_robot(str(path))
 
 
@@ -261,13 +257,13 @@ def test_a_urdf_that_does_not_load_is_refused(tmp_path):
     path = _write_robot(tmp_path)
     (tmp_path / "g1_hands.urdf").write_text("<robot name='x'><link name='a'></robot>")
     with pytest.raises(RobotFileError) as err:
-        build_model(str(path))
+        load_robot(str(path))
     assert "model.urdf" in str(err.value) and "does not load" in str(err.value)
 
 
 def test_preset_b_is_checked_against_the_robot_files_heights(tmp_path):
     path = str(_write_robot(tmp_path))
-    spec = get_spec(path)
+    spec = load_robot(path).spec
     lo, hi = spec.b_range_s
     assert config_from_dict({"robot": {"model": path}, "dcm": {"b": hi}}).dcm.b == hi
     with pytest.raises(ConfigError, match="dcm.b"):
@@ -288,7 +284,7 @@ def test_robot_dropdown_lists_the_built_ins_and_the_presets_robot(tmp_path):
 def test_lateral_push_scaled_to_the_robots_mass_is_survived(preset):
     """The paper's ±25 N on Toro (76 kg) scaled by mass: the same 0.33 m/s² on every robot."""
     config = load_preset(Path(__file__).resolve().parents[1] / "presets" / preset)
-    mass = get_spec(config.robot.model).mass_kg
+    mass = load_robot(config.robot.model).spec.mass_kg
     for push in config.pushes:
         assert abs(push.force[1]) == pytest.approx(25.0 * mass / 76.0, abs=0.05)
     fell, walker = _walk(config, config.sim.duration)
@@ -316,9 +312,9 @@ def test_dashboard_shows_a_presets_robot_file_in_its_dropdown(tmp_path):
              "sim": {"backend": "lip"}}
         )  # fmt: skip
         assert dash.editor.apply_config(config)
-        dash.loop._handle_commands()
+        dash.loop.pump()
         assert tuple(dropdown.options) == (*BUILTIN_ROBOTS, path) and dropdown.value == path
-        lo, hi = get_spec(path).b_range_s
+        lo, hi = load_robot(path).spec.b_range_s
         b = dash.controls.handles[("dcm", "b")]
         assert lo - 5e-4 <= b.min < b.max <= hi + 5e-4  # the b slider spans the file's range
         assert dash.loop.session.config.robot.model == path

@@ -17,9 +17,7 @@ import pytest
 from test_robot_files import PRESET, _urdf_mass, _walk
 
 from dcmviz.config import load_preset
-from dcmviz.robots import RobotFileError
-from dcmviz.robots.model import build_model
-from dcmviz.sim.robots import SIDES, load_robot
+from dcmviz.robots import SIDES, RobotFileError, load_robot
 
 ROBOT_FILE = """
 name = "g1_mjcf"
@@ -51,7 +49,7 @@ def _g1_mjcf(tmp_path: Path) -> Path:
     paths do not resolve; the inertials are the URDF's), a free joint on the pelvis, each leg and
     arm torque limit moved to a motor (gear 2, ctrlrange ± limit / 2), the built-in posture as
     the keyframe ``stand``.  Returns the robot file written next to it."""
-    g1 = build_model("g1")
+    g1 = load_robot("g1").model
     root = ET.parse(g1.file.urdf_path).getroot()
     for link in root.findall("link"):
         for tag in ("visual", "collision"):
@@ -88,7 +86,7 @@ def _g1_mjcf(tmp_path: Path) -> Path:
 @pytest.mark.slow
 def test_an_mjcf_robot_matches_its_urdf_and_walks(tmp_path):
     path = _g1_mjcf(tmp_path)
-    urdf, mjcf = build_model("g1"), build_model(str(path))
+    urdf, mjcf = load_robot("g1").model, load_robot(str(path)).model
     assert mjcf.is_mjcf and not urdf.is_mjcf
     # the same robot: joints, locked posture, limits (torques from the motors: 2 × ctrlrange)
     assert mjcf.joint_names == urdf.joint_names and mjcf.legs == urdf.legs
@@ -110,19 +108,19 @@ def test_an_mjcf_robot_matches_its_urdf_and_walks(tmp_path):
 
     # MuJoCo, built from the same edited MJCF: its own CoM and masses agree with Pinocchio's
     robot = load_robot(str(path))
-    mm = robot.mj_model
+    mm = robot.mujoco.model
     assert mm.nu == len(robot.joint_names) and mm.njnt == 1 + len(robot.joint_names)
     assert float(mm.body_mass.sum()) == pytest.approx(d_m.mass_kg, abs=1e-9)
     data = mujoco.MjData(mm)
-    data.qpos[:] = robot.qpos_mj(robot.q_nominal)
+    data.qpos[:] = robot.mujoco.qpos_mj(robot.q_nominal)
     mujoco.mj_forward(mm, data)
-    com = data.subtree_com[mm.body(robot.root_body_name).id]
-    soles = np.array([data.site_xpos[robot.sole_sites[s]] for s in SIDES])
+    com = data.subtree_com[mm.body(robot.mujoco.root_body_name).id]
+    soles = np.array([data.site_xpos[robot.mujoco.sole_sites[s]] for s in SIDES])
     assert com[2] - soles[:, 2].mean() == pytest.approx(d_m.com_height_m, abs=1e-9)
     np.testing.assert_allclose(soles[:, 2], 0.0, atol=1e-8)
     for name, lim in zip(robot.joint_names, robot.torque_limit, strict=True):
         np.testing.assert_allclose(mm.actuator_ctrlrange[mm.actuator(name).id], [-lim, lim])
-    assert robot.mj_spec is not None
+    assert robot.mujoco.spec is not None
 
     # walks: the six-step preset of test_robot_files with this robot
     preset = tmp_path / "walk.toml"
@@ -136,15 +134,15 @@ def test_an_mjcf_robot_matches_its_urdf_and_walks(tmp_path):
 def test_an_mjcf_robots_visual_meshes_sit_where_mujoco_puts_its_geoms(tmp_path):
     """The dashboard's and recorder's meshes of an MJCF robot: its geoms, posed like MuJoCo's
     own model of the file (the original MJCF, locked joints at their angles)."""
-    from dcmviz.backend import RobotPose
-    from dcmviz.visual import RobotVisual
+    from dcmviz.robots.pose import RobotPose
+    from dcmviz.robots.visual import RobotVisual
 
     path = _g1_mjcf(tmp_path)
-    rm = build_model(str(path))
+    rm = load_robot(str(path)).model
     q = rm.q_nominal
     joints = dict(rm.locked) | dict(zip(rm.joint_names, q[7:], strict=True))
     wxyz = np.r_[q[6], q[3:6]]
-    visual = RobotVisual(str(path))
+    visual = RobotVisual(str(path), rm)
     poses = visual.in_world(RobotPose(base_position=q[:3], base_wxyz=wxyz, joints=joints))
     model = mujoco.MjModel.from_xml_path(str(tmp_path / "g1.xml"))
     data = mujoco.MjData(model)
@@ -189,7 +187,7 @@ def test_an_mjcf_the_edit_cannot_carry_is_refused_naming_the_key(tmp_path, extra
         f"{extra}</mujoco>"
     )
     with pytest.raises(RobotFileError) as err:
-        build_model(_mjcf_robot(tmp_path, xml))
+        load_robot(_mjcf_robot(tmp_path, xml))
     for word in words:
         assert word in str(err.value), str(err.value)
 
@@ -206,6 +204,6 @@ def test_the_model_table_takes_one_urdf_or_one_mjcf(tmp_path, model, words):
     path = tmp_path / "r.toml"
     path.write_text(ROBOT_FILE.replace('mjcf = "g1.xml"', model), encoding="utf-8")
     with pytest.raises(RobotFileError) as err:
-        build_model(str(path))
+        load_robot(str(path))
     for word in words:
         assert word in str(err.value), str(err.value)

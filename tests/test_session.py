@@ -10,9 +10,9 @@ import pytest
 
 from dcmviz import GRAVITY
 from dcmviz.config import Config
-from dcmviz.robots import get_spec
+from dcmviz.robots import load_robot
 from dcmviz.session import Session
-from dcmviz.tick import Tick
+from dcmviz.session.tick import Tick
 
 
 def lip(**sections) -> Session:
@@ -30,7 +30,7 @@ def test_tick_record_matches_the_walk() -> None:
     last = ticks[-1]
     e = last.command.xi - last.command.xi_ref
     assert last.dcm_error_m == pytest.approx(float(np.sqrt(e @ e)), abs=1e-15)
-    assert last.plan is s.plan and last.robot == "talos" and last.backend == "lip"
+    assert last.plan is s.plan and last.robot.name == "talos" and last.backend == "lip"
     versions = sorted({k.plan_version for k in ticks})
     assert versions == list(range(versions[0], versions[0] + len(versions)))  # +1 per change
 
@@ -66,7 +66,7 @@ def test_observer_switched_on_starts_from_the_present_momentum() -> None:
 
 
 def test_point_mass_stands_at_the_robots_height_whatever_b() -> None:
-    spec = get_spec("talos")
+    spec = load_robot("talos").spec
     for b in (0.275, 0.30):  # CoM 0.742 m and 0.883 m, the robot stands at 0.877 m
         s = lip(dcm={"order": 5, "b": b})
         assert s.t == 0.0 and s.last_state.com[2] == pytest.approx(spec.com_height_m)

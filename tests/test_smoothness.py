@@ -209,8 +209,8 @@ def test_step_timing_keeps_the_references_and_the_swing_smooth(
     s.run(start + 3.0)
     assert not s.fell
     retimed = [k for k in ticks if not np.array_equal(
-        k.plan.preview.durations[: len(s.walker._nominal_durations)],
-        s.walker._nominal_durations[: len(k.plan.preview.durations)],
+        k.plan.preview.durations[: len(s.nominal_plan.preview.durations)],
+        s.nominal_plan.preview.durations[: len(k.plan.preview.durations)],
     )]  # fmt: skip
     assert retimed, "the push did not change the timing"
     dt = s.backend.control_dt

@@ -68,19 +68,18 @@ def test_a_humanoid_pushed_at_its_torso_has_the_lever_in_its_bound() -> None:
     import mujoco
     import pinocchio as pin
 
-    from dcmviz.sim.robots import load_robot
-    from dcmviz.sweep.bounds import push_lever
+    from dcmviz.robots import load_robot
 
     config = load_preset(ROOT / "presets" / "walk_forward.toml").replace(
         pushes=[], control={"recovery": "multi_step_timing", "observer": False}
     )
     robot = load_robot("talos")
-    data = mujoco.MjData(robot.mj_model)
-    data.qpos[:] = robot.qpos_mj(robot.q_nominal)
-    mujoco.mj_kinematics(robot.mj_model, data)
+    data = mujoco.MjData(robot.mujoco.model)
+    data.qpos[:] = robot.mujoco.qpos_mj(robot.q_nominal)
+    mujoco.mj_kinematics(robot.mujoco.model, data)
     torso = data.body(robot.spec.bodies["torso"]).xipos[2]
     com = pin.centerOfMass(robot.pin_model, robot.pin_model.createData(), robot.q_nominal)[2]
-    assert abs(push_lever("talos", "torso") - (torso - com)) < 2e-3
+    assert abs(load_robot("talos").push_lever_m("torso") - (torso - com)) < 2e-3
 
     angle = math.pi / 2
     bound = stance_edge_bound(config, 4, 0.5, 0.2, angle, backend="mujoco", body="torso")

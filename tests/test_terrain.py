@@ -10,11 +10,11 @@ import pytest
 from dcmviz.config import Config, ConfigError, loads_preset
 from dcmviz.gait import plan_from_config
 from dcmviz.gait.swing import EDGE_CLEARANCE_M, SwingTrajectory
-from dcmviz.robots import get_spec
+from dcmviz.gait.terrain import Terrain, stairs_boxes
+from dcmviz.robots import load_robot
+from dcmviz.robots.feet import Footstep
 from dcmviz.robots.geometry import sole_corners
 from dcmviz.session import Session
-from dcmviz.state import Footstep
-from dcmviz.terrain import Terrain, stairs_boxes
 
 STAIRS = """
 [gait]
@@ -53,7 +53,7 @@ def test_footsteps_take_the_tread_heights_and_sit_inside_treads(rise: float) -> 
     config = stairs(rise)
     plan = plan_from_config(config)
     terrain = Terrain(stairs_boxes(0.15, rise, 0.30, 10, 1.2, 1.5))
-    spec = get_spec("talos")
+    spec = load_robot("talos").spec
     for step in plan.steps:
         corners = sole_corners(step.position, step.yaw, spec.foot_length_m, spec.foot_width_m)
         heights = terrain.height_at(corners[:, :2] if corners.shape[1] > 2 else corners)
@@ -65,7 +65,7 @@ def test_footsteps_take_the_tread_heights_and_sit_inside_treads(rise: float) -> 
 
 def test_swing_clears_every_edge_by_the_stated_margin() -> None:
     terrain = Terrain(stairs_boxes(0.15, 0.15, 0.30, 10, 1.2, 1.5))
-    spec = get_spec("talos")
+    spec = load_robot("talos").spec
     lift = Footstep("left", np.array([0.3, 0.085, 0.15]))
     touch = Footstep("left", np.array([0.9, 0.085, 0.45]))
     swing = SwingTrajectory.between(
@@ -100,7 +100,7 @@ def test_push_on_the_stairs_keeps_adjusted_footsteps_on_their_treads(recovery: s
     s.push((0.0, -100.0, 0.0), 0.2, start=3.2)  # 20 N·s lateral
     s.run(20.0)
     assert not s.fell
-    spec = get_spec("talos")
+    spec = load_robot("talos").spec
     terrain = Terrain(stairs_boxes(0.15, 0.15, 0.30, 10, 1.2, 1.5))
     moved = [r for r in s.realised_steps() if np.linalg.norm(r.adjustment[:2]) > 1e-3]
     assert moved  # the push was large enough to adjust footsteps

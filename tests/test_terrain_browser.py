@@ -113,7 +113,7 @@ def test_stairs_preset_shows_the_stairs_and_talos_on_them(shots: Path) -> None:
             assert wait_for(lambda: paused, timeout=240)
             unsubscribe()
             dashboard.sim_panel.on_play(False)
-            assert wait_for(lambda: not dashboard.loop.snapshot.playing)
+            assert wait_for(lambda: not dashboard.loop.snapshot.status.playing)
             tick = session.tick()
             assert not session.fell and all(tick.command.support.values())
             assert all(tick.state.in_contact.values())

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from dcmviz.config import Config, load_preset, loads_preset
-from dcmviz.robots import get_spec
+from dcmviz.gait.terrain import terrain_of
+from dcmviz.robots import load_robot
 from dcmviz.robots.geometry import sole_corners
 from dcmviz.session import Session
-from dcmviz.terrain import terrain_of
 
 RISE, RUN, COUNT, START = 0.15, 0.30, 2, 0.15
 PRESETS = Path(__file__).resolve().parents[1] / "presets"
@@ -47,7 +47,7 @@ def short_stairs(rise: float) -> Config:
 
 
 def tread_height(x: float, rise: float) -> float:
-    """The ground under x, straight from the stairs' definition (not from dcmviz.terrain)."""
+    """The ground under x, straight from the stairs' definition (not from dcmviz.gait.terrain)."""
     if rise > 0:  # treads i = 1..COUNT from START, the last one runs on as the landing
         i = int(np.floor((x - START) / RUN)) + 1
         return float(rise * min(max(i, 0), COUNT))
@@ -90,7 +90,7 @@ def test_talos_walks_a_short_staircase(rise: float) -> None:
     """Two 0.15 m steps up (down) onto the landing (floor): no fall, every sole lands flat
     on one tread at its height (measured by MuJoCo), horizontal DCM error below 3 cm."""
     session = Session(short_stairs(rise))
-    spec = get_spec("talos")
+    spec = load_robot("talos").spec
     landed: list[tuple[str, np.ndarray, float]] = []
     seen = [0]
 
@@ -150,7 +150,7 @@ def test_a_lateral_push_of_20_newton_seconds_on_the_stairs_is_survived() -> None
     h = session.history()
     during = (h["t"] >= 3.8) & (h["t"] < 4.0)
     assert h["f_hat"][during, 1].max() > 30.0  # the observer's estimate of the 100 N push
-    spec = get_spec("talos")
+    spec = load_robot("talos").spec
     third = session.realised_steps()[2]
     assert third.adjustment[1] > 0.05  # stepped left to catch the push
     assert third.position[0] == pytest.approx(0.90, abs=0.03)  # on its tread (0.75–1.05 m)

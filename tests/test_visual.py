@@ -8,10 +8,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from dcmviz.backend import RobotPose
 from dcmviz.config import Config, load_preset
+from dcmviz.robots import load_robot
+from dcmviz.robots.pose import RobotPose
 from dcmviz.session import Session
-from dcmviz.visual import robot_visual
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def test_meshes_sit_on_the_simulated_links(model: str, config: Config) -> None:
     """Mesh frames against MuJoCo's own forward kinematics of the same state (an independent
     model built from the edited URDF), after a second of walking."""
-    visual = robot_visual(model)
+    visual = load_robot(model).visual
     assert len(visual.meshes) > 30
     for mesh in visual.meshes:
         assert mesh.vertices.shape[1] == 3 and len(mesh.faces) > 0
@@ -52,7 +52,7 @@ def test_meshes_sit_on_the_simulated_links(model: str, config: Config) -> None:
 
 
 def test_in_base_is_the_world_pose_without_the_base() -> None:
-    visual = robot_visual("talos")
+    visual = load_robot("talos").visual
     angle = 0.4
     c, s = np.cos(angle / 2), np.sin(angle / 2)
     joints = {"leg_left_4_joint": 0.7, "arm_right_2_joint": -0.3}

@@ -7,9 +7,9 @@ import pinocchio as pin
 import pytest
 
 from dcmviz import GRAVITY
-from dcmviz.sim.robots import SIDES, load_robot
+from dcmviz.robots import SIDES, load_robot
 from dcmviz.sim.wbc import Gains, WholeBodyController
-from dcmviz.state import FootTarget, WalkerCommand
+from dcmviz.walker.state import FootTarget, WalkerCommand
 
 E_Z = np.array([0.0, 0.0, 1.0])
 
@@ -135,8 +135,11 @@ def test_infeasible_demand_keeps_constraints():
     force = np.array([2000.0, 0.0, -300.0])
     cmd = _command(robot, {"left": True, "right": True}, force, _feet(robot, q))
     sol = wbc.solve(ctx, cmd, {"left": True, "right": True})
-    if sol.ok:
-        _check_dynamics_and_constraints(robot, wbc, q, v, sol, {"left": True, "right": True})
+    assert sol.ok  # the force is a task: the QP stays feasible and gives what the feet can
+    _check_dynamics_and_constraints(robot, wbc, q, v, sol, {"left": True, "right": True})
+    total = sol.wrenches["left"][:3] + sol.wrenches["right"][:3]
+    assert total[2] > 0.0  # the feet push, they cannot pull the robot down
+    assert total[0] < 0.5 * force[0]  # the friction cones (checked per sole above) clip it
 
 
 def test_failed_qp_holds_the_last_torques():

@@ -18,7 +18,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from dcmviz.sim.robots import SIDES, Robot, load_robot
+from dcmviz.robots import SIDES, Robot, load_robot
 from dcmviz.sim.wbc import (
     AngularMomentumTask,
     BaseOrientationTask,
@@ -29,7 +29,7 @@ from dcmviz.sim.wbc import (
     Layout,
     PostureTask,
 )
-from dcmviz.state import FootTarget, WalkerCommand
+from dcmviz.walker.state import FootTarget, WalkerCommand
 
 H = 1e-4  # s, finite-difference step in time
 

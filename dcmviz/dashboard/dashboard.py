@@ -46,7 +46,7 @@ from dcmviz.dashboard.sim_panel import SimPanel
 from dcmviz.dashboard.status import StatusLine
 from dcmviz.dashboard.terrain_view import TerrainView
 from dcmviz.dcm.control import vrp_height
-from dcmviz.robots import get_spec
+from dcmviz.robots import load_robot
 from dcmviz.session import Session
 
 SessionFactory = Callable[[Config], Session]
@@ -60,7 +60,7 @@ def new_session(config: Config) -> Session:
 def dz_vrp_text(config: Config) -> str:
     """Markdown: Δz_vrp = g b² of the configured b (eq. 1) and the CoM heights the robot walks at."""
     b = config.dcm.b
-    spec = get_spec(config.robot.model)
+    spec = load_robot(config.robot.model).spec
     lo, hi = spec.com_height_range_m
     b_lo, b_hi = spec.b_range_s
     b_lo, b_hi = math.ceil(b_lo * 1000) / 1000, math.floor(b_hi * 1000) / 1000  # the slider's
@@ -136,7 +136,7 @@ class Dashboard:
             self.notifier.guarded("dragging a footstep", self.editor.on_footstep_moved),
             config=lambda: self.editor.config,
             on_warnings=lambda warnings: self.feasibility.show(
-                warnings, "the walked plan", self.loop.snapshot.version, walked=True
+                warnings, "the walked plan", self.loop.snapshot.status.version, walked=True
             ),
         )  # fmt: skip
         self.view = SimView(
@@ -218,7 +218,7 @@ class Dashboard:
         self.loop.post("reset")
         self.loop.post("hold", HOLD_MAX_S)
         if self.view.running():
-            self.view.wait_drawn(lambda snap: snap.resets > resets, NEWCOMER_DRAW_TIMEOUT_S)
+            self.view.wait_drawn(lambda snap: snap.status.resets > resets, NEWCOMER_DRAW_TIMEOUT_S)
 
     def _on_connect(self, client: viser.ClientHandle) -> None:
         """A tab reported its camera (its view is up): a walk held for it starts."""

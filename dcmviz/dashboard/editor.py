@@ -22,7 +22,7 @@ from dcmviz.dashboard.gui import DCM_SLIDERS, GEOMETRY_FIELDS, parse_value
 from dcmviz.dashboard.loop import SimLoop
 from dcmviz.dashboard.notify import Notifier
 from dcmviz.gait import PlanWarning, plan_footsteps, plan_from_config
-from dcmviz.robots import get_spec
+from dcmviz.robots import load_robot
 
 CURRENT = "(current)"  # the preset dropdown's entry for a configuration edited in the panel
 
@@ -36,7 +36,7 @@ def fit_b_to_robot(data: dict[str, Any], step: float = B_STEP) -> None:
     """A b the newly chosen robot cannot walk at becomes its nominal b (CoM at standing height)
     on the b slider's grid, so picking another robot is never refused for the previous one's b."""
     try:
-        spec = get_spec(data["robot"]["model"])
+        spec = load_robot(data["robot"]["model"]).spec
     except (KeyError, ValueError):
         return  # the schema names the bad robot
     lo, hi = spec.b_range_s

@@ -14,7 +14,7 @@ import viser
 
 from dcmviz.config import Config
 from dcmviz.gait import GaitPlan, PlanWarning, check_plan
-from dcmviz.robots import get_spec
+from dcmviz.robots import load_robot
 
 SHOWN_WARNINGS = 6  # the panel lists this many, then "and n more"
 
@@ -22,7 +22,7 @@ SHOWN_WARNINGS = 6  # the panel lists this many, then "and n more"
 def plan_warnings(plan: GaitPlan, config: Config) -> tuple[PlanWarning, ...]:
     """check_plan for ``config``'s robot; never raises (a checker bug is not the user's error)."""
     try:
-        return tuple(check_plan(plan, get_spec(config.robot.model), config))
+        return tuple(check_plan(plan, load_robot(config.robot.model).spec, config))
     except Exception as err:  # noqa: BLE001
         return (PlanWarning(f"feasibility check failed: {err!r}"),)
 
@@ -58,7 +58,7 @@ def likely_cause(warnings: Sequence[PlanWarning], config: Config, pushed: bool =
         first = warnings[0].message
         more = f" (and {len(warnings) - 1} more warnings)" if len(warnings) > 1 else ""
         return f"likely cause: {first}{more}"
-    spec = get_spec(config.robot.model)
+    spec = load_robot(config.robot.model).spec
     gait = config.gait
     if abs(gait.step_length) >= 0.9 * spec.max_step_length_m:
         return (

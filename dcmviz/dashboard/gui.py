@@ -16,7 +16,7 @@ from typing import Any
 import viser
 
 from dcmviz.config import Config, ControlSection, field_info
-from dcmviz.robots import BUILTIN_ROBOTS, RobotSpec, get_spec
+from dcmviz.robots import BUILTIN_ROBOTS, RobotSpec, load_robot
 
 
 @dataclass(frozen=True)
@@ -98,7 +98,7 @@ class Controls:
         self._quiet = threading.local()
         self.extra: dict[str, Any] = {}
         self._callback: Callable[[str, str, Any, viser.ClientHandle | None], None] | None = None
-        self.robot = get_spec(config.robot.model)
+        self.robot = load_robot(config.robot.model).spec
 
         with gui.add_folder("Footsteps"):
             for spec in FOOTSTEP_SLIDERS:
@@ -199,7 +199,7 @@ class Controls:
 
     def show(self, config: Config) -> None:
         """Write a config into the controls without triggering the change callbacks."""
-        robot = get_spec(config.robot.model)
+        robot = load_robot(config.robot.model).spec
         if robot != self.robot:
             self.set_robot(robot)
         self._quiet.on = True

@@ -19,10 +19,10 @@ import numpy as np
 
 from dcmviz.config import Config
 from dcmviz.gait import GaitPlan
-from dcmviz.heap import release_freed_memory
-from dcmviz.session import Session
-from dcmviz.state import Footstep
-from dcmviz.tick import Tick
+from dcmviz.robots import Robot
+from dcmviz.robots.heap import release_freed_memory
+from dcmviz.robots.pose import RobotPose
+from dcmviz.session import Session, Tick
 
 FALL_PAUSE_S = 1.0  # wall seconds the fallen robot stays visible before the reset
 PLAN_END_PAUSE_S = 1.5  # sim seconds standing at the end of a plan before looping
@@ -36,31 +36,17 @@ CONFIG_MIN_INTERVAL_S = 0.2  # configs are adopted at most this often (a dragged
 
 
 @dataclass(frozen=True)
-class Snapshot:
-    """What the view draws, copied out of the session by the simulation thread."""
+class LoopStatus:
+    """What the simulation loop adds to the session's tick: its clock, play state and counters."""
 
-    t: float = 0.0
+    t: float = 0.0  # s, simulation time
     backend: str = ""
-    robot: str = ""
+    robot: Robot | None = None  # the robot walked
     playing: bool = False
     speed: float = 1.0
     real_time_factor: float = 0.0
     falls: int = 0
-    fallen: bool = False
-    done: bool = False
-    com: np.ndarray | None = None
-    xi: np.ndarray | None = None
-    xi_ref: np.ndarray | None = None
-    xi_adj: np.ndarray | None = None
-    v_cmd: np.ndarray | None = None
-    f_hat: np.ndarray | None = None
-    pushes: tuple = ()  # (body, world point, force N) applied this tick
-    adjusted_steps: tuple = ()  # Footsteps (gait.Footstep) still to come, as adjusted
-    realised_steps: tuple = ()  # Footsteps where the feet really landed
-    history: dict[str, np.ndarray] = field(default_factory=dict)
-    plan: GaitPlan | None = None  # the plan the walker walks (continuous: the receding horizon)
-    plan_version: int = 0  # changes whenever the walked plan does
-    tick: Tick | None = None  # the session's record of the last tick (None right after a reset)
+    fallen: bool = False  # the robot lies fallen (the walk resets in FALL_PAUSE_S)
     version: int = 0  # config version this snapshot was simulated with
     note: str = ""  # what the last config change did, for the status line
     note_seq: int = 0  # counts config changes that set a note (a repeated note is a new one)
@@ -69,13 +55,58 @@ class Snapshot:
     held: bool = False  # the walk waits at its start for a newcomer's tab to finish loading
 
 
+@dataclass(frozen=True)
+class Rest:
+    """A walk just reset, before its first tick: the plan and where the robot stands."""
+
+    plan: GaitPlan
+    plan_version: int
+    com: np.ndarray
+    pose: RobotPose | None  # the humanoid standing (None for the point mass)
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """What the view draws: the session's last tick (or, right after a reset, the walk at rest)
+    and the loop's status; the live plot's history window."""
+
+    tick: Tick | None = None  # the session's record of the last tick (None right after a reset)
+    status: LoopStatus = LoopStatus()
+    rest: Rest | None = None  # the walk at rest when there is no tick yet
+    history: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def plan(self) -> GaitPlan | None:
+        """The plan the walker walks (continuous: the receding horizon)."""
+        if self.tick is not None:
+            return self.tick.plan
+        return None if self.rest is None else self.rest.plan
+
+    @property
+    def plan_version(self) -> int:
+        """Changes whenever the walked plan does."""
+        if self.tick is not None:
+            return self.tick.plan_version
+        return 0 if self.rest is None else self.rest.plan_version
+
+    @property
+    def com(self) -> np.ndarray | None:
+        """The measured CoM (m)."""
+        if self.tick is not None:
+            return self.tick.state.com
+        return None if self.rest is None else self.rest.com
+
+    @property
+    def pose(self) -> RobotPose | None:
+        """The humanoid's links (None for the point mass)."""
+        if self.tick is not None:
+            return self.tick.pose
+        return None if self.rest is None else self.rest.pose
+
+
 def _finite(*arrays: Any) -> bool:
     """Every value of the given arrays is finite (None counts as finite)."""
     return all(a is None or bool(np.isfinite(a).all()) for a in arrays)
-
-
-def _arr(x: Any) -> np.ndarray | None:
-    return None if x is None else np.array(x, dtype=float)
 
 
 class SimLoop:
@@ -112,8 +143,6 @@ class SimLoop:
         self._pending_config: Any = None  # (version, Config) waiting for CONFIG_MIN_INTERVAL_S
         self._config_at = -float("inf")  # perf_counter of the last adopted config
         self._hold_until = 0.0  # perf_counter until which the clock stands still ("hold")
-        # the realised footsteps as drawn, rebuilt only when a foot lands (not at every publish)
-        self._realised: tuple[tuple, tuple[Footstep, ...]] = ((), ())
         self._publish()
 
     # -- commands (any thread) --------------------------------------------------------------------
@@ -141,6 +170,13 @@ class SimLoop:
         if "error" in box:
             raise box["error"]
         return box.get("value")
+
+    def pump(self) -> Snapshot:
+        """Apply the queued commands and publish a snapshot now; returns it.  For a loop driven
+        by hand (no thread started: ``session.step()`` by the caller), e.g. headless use."""
+        self._handle_commands()
+        self._publish()
+        return self.snapshot
 
     def start(self) -> None:
         self._thread = threading.Thread(target=self._run, name="dcmviz-sim", daemon=True)
@@ -334,7 +370,8 @@ class SimLoop:
         return (w[-1][1] - w[0][1]) / (w[-1][0] - w[0][0])
 
     def _publish(self) -> None:
-        """A new snapshot from the session's last :class:`~dcmviz.tick.Tick` (nothing else)."""
+        """A new snapshot: the session's last :class:`~dcmviz.session.tick.Tick` (nothing else
+        of the session's) and the loop's status."""
         s = self.session
         tick = s.tick()
         now = time.perf_counter()
@@ -342,15 +379,15 @@ class SimLoop:
         if now - self._last_history >= HISTORY_DT or not self.playing:
             history = self._history_window(s)
             self._last_history = now
-        common = dict(
+        status = LoopStatus(
+            t=float(s.t),
             backend=s.backend_name,
-            robot=s.config.robot.model,
+            robot=s.robot,
             playing=self.playing,
             speed=self.speed,
             real_time_factor=self.real_time_factor(),
             falls=self.falls,
             fallen=self._fallen_at is not None,
-            history=history,
             version=self.version,
             note=self.note,
             note_seq=self.note_seq,
@@ -358,37 +395,11 @@ class SimLoop:
             resets=self.resets,
             held=self.held,
         )
+        rest = None
         if tick is None:  # reset, not stepped yet: the walk's plan, standing
-            self.snapshot = Snapshot(t=float(s.t), plan=s.plan, plan_version=s.plan_version,
-                                     com=_arr(s.last_state.com), **common)  # fmt: skip
-            return
-        self.snapshot = Snapshot(
-            t=float(s.t),
-            done=tick.done,
-            com=tick.state.com,
-            xi=tick.command.xi,
-            xi_ref=tick.command.xi_ref,
-            xi_adj=tick.command.xi_adj,
-            v_cmd=tick.command.v_cmd,
-            f_hat=tick.f_hat,
-            pushes=tuple((p.body, p.point, p.force) for p in tick.pushes),
-            adjusted_steps=tick.adjusted_steps(),
-            realised_steps=self._realised_steps(tick.realised_steps),
-            plan=tick.plan,
-            plan_version=tick.plan_version,
-            tick=tick,
-            **common,
-        )
-
-    def _realised_steps(self, records: tuple) -> tuple[Footstep, ...]:
-        """``records`` as Footsteps, built again only when they changed (a landing or a reset
-        adds or replaces the last record): 64 records cost ~23 µs of CPU, paid at every publish
-        before."""
-        seen, steps = self._realised
-        if len(records) != len(seen) or (records and records[-1] is not seen[-1]):
-            steps = tuple(Footstep(r.side, r.position, 0.0) for r in records)
-            self._realised = (records, steps)
-        return steps
+            rest = Rest(s.plan, s.plan_version, np.array(s.last_state.com, float),
+                        s.backend.robot_pose())  # fmt: skip
+        self.snapshot = Snapshot(tick=tick, status=status, rest=rest, history=history)
 
     @staticmethod
     def _history_window(session: Session) -> dict[str, np.ndarray]:

@@ -22,7 +22,7 @@ from dcmviz.dashboard.loop import SimLoop, Snapshot
 from dcmviz.dashboard.plots import PreviewPlots
 from dcmviz.dashboard.preview import PreviewData, preview_data
 from dcmviz.gait import GaitPlan, PlanWarning
-from dcmviz.robots import get_spec
+from dcmviz.robots import Robot
 
 POLL_S = 0.004  # how often the drawing thread looks for a new plan (cheap: one comparison)
 KEPT_LATENCIES = 200
@@ -95,13 +95,13 @@ class PlanView:
         drew = False
         cpu0 = time.thread_time()
         if snap.plan is not None and snap.plan_version != self.drawn_plan_version:
-            self.draw_plan(snap.plan, snap.robot)
+            self.draw_plan(snap.plan, snap.status.robot)
             self.drawn_plan_version = snap.plan_version
             drew = True
-        if snap.version > self.drawn_version or drew:
+        if snap.status.version > self.drawn_version or drew:
             now, cpu = time.perf_counter(), time.thread_time() - cpu0
             with self._cond:
-                self.drawn_version = max(self.drawn_version, snap.version)
+                self.drawn_version = max(self.drawn_version, snap.status.version)
                 while self._expected and self._expected[0][0] <= self.drawn_version:
                     version, t_submit = self._expected.popleft()
                     self.latency_s[version] = now - t_submit
@@ -124,9 +124,9 @@ class PlanView:
         return True
 
     # -- drawing --------------------------------------------------------------------------------
-    def draw_plan(self, plan: GaitPlan, robot: str) -> PreviewData:
+    def draw_plan(self, plan: GaitPlan, robot: Robot) -> PreviewData:
         """Sample the plan and redraw the 3-D preview, the gizmos and the Fig. 1a plots."""
-        data = preview_data(plan, get_spec(robot))
+        data = preview_data(plan, robot.spec)
         warnings = plan_warnings(plan, self.config()) if self.config is not None else ()
         steps = {w.step for w in warnings if w.step is not None}
         waypoints = sorted({w.waypoint for w in warnings if w.waypoint is not None})

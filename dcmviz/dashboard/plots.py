@@ -8,14 +8,15 @@ import viser
 import viser.uplot as uplot
 
 from dcmviz.dashboard.preview import PHASE_COLORS, PreviewData
+from dcmviz.session.signals import SIGNALS
 
 AXES = ("x", "y", "z")
 VRP_STROKE = "#f08c1e"
-DCM_STROKE = "#1e3cc8"
-MEASURED_STROKE = "#00aaff"
-REF_STROKE = "#444444"
-ADJ_STROKE = "#ff00c8"
-ERROR_STROKE = "#d62728"
+DCM_STROKE = SIGNALS["dcm"].hex
+MEASURED_STROKE = SIGNALS["xi"].hex
+REF_STROKE = SIGNALS["xi_ref"].hex
+ADJ_STROKE = SIGNALS["xi_adj"].hex
+ERROR_STROKE = SIGNALS["dcm_error"].hex
 LIVE_POINTS = 200  # samples per live series (8 s in a 400 px wide panel: 25 a second)
 PREVIEW_POINTS = 250  # samples per preview series
 PLOT_TOLERANCE = 2e-3  # m (and s): a preview plot whose samples all moved less is not re-sent
@@ -131,6 +132,8 @@ def phase_legend() -> str:
         for kind, (r, g, b) in PHASE_COLORS.items()
     ]
     return (
-        "<small>VRP by phase: " + " ".join(items) + " · <span style='color:#1e3cc8'>━</span> DCM"
+        "<small>VRP by phase: "
+        + " ".join(items)
+        + f" · <span style='color:{DCM_STROKE}'>━</span> DCM"
         "</small>"
     )

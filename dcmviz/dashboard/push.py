@@ -14,7 +14,7 @@ from dcmviz.dashboard.aim import PushAim
 from dcmviz.dashboard.editor import ConfigEditor
 from dcmviz.dashboard.loop import SimLoop
 from dcmviz.dashboard.notify import Notifier
-from dcmviz.robots import get_spec
+from dcmviz.robots import load_robot
 
 LAST_PUSH_SHOW_S = 4.0  # the status line names a click's push this long
 
@@ -72,7 +72,7 @@ class PushPanel:
             self.gui_push_ramp = gui.add_slider(
                 "T_ramp [s]", min=0.0, max=10.0, step=0.05, initial_value=0.0
             )
-            bodies = tuple(get_spec(editor.config.robot.model).bodies)
+            bodies = tuple(load_robot(editor.config.robot.model).spec.bodies)
             self.gui_push_body = gui.add_dropdown("body", bodies, initial_value=bodies[0])
             self.handles = {
                 "direction": self.gui_push_direction,
@@ -117,7 +117,7 @@ class PushPanel:
 
     def show(self, config: Config, preset: str) -> None:
         """The push bodies of the configured robot."""
-        bodies = tuple(get_spec(config.robot.model).bodies)
+        bodies = tuple(load_robot(config.robot.model).spec.bodies)
         if tuple(self.gui_push_body.options) != bodies:
             self.gui_push_body.options = bodies
 

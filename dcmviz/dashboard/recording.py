@@ -13,8 +13,8 @@ import viser
 from dcmviz.dashboard.loop import SimLoop
 from dcmviz.dashboard.notify import Notifier
 from dcmviz.dashboard.presets import slug
-from dcmviz.heap import release_freed_memory
 from dcmviz.record import Recorder
+from dcmviz.robots.heap import release_freed_memory
 
 
 class RecordingPanel:

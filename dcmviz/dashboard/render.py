@@ -22,8 +22,8 @@ from dcmviz.dashboard.plots import LivePlot
 from dcmviz.dashboard.preview import Sole
 from dcmviz.dashboard.robot_view import BodyClick, RobotView
 from dcmviz.dashboard.status import StatusLine
-from dcmviz.robots import get_spec
-from dcmviz.visual import robot_visual
+from dcmviz.robots import Robot
+from dcmviz.session import AppliedPush
 
 RENDER_FPS = 36.0  # scene updates per second (≥ 30 with margin for scheduling jitter; every
 # frame costs one message per moving robot mesh and tab)
@@ -51,10 +51,11 @@ def floor_drop(snap: Snapshot) -> np.ndarray:
     return np.array([0.0, 0.0, dz_vrp(snap) - FLOOR_LIFT_M])
 
 
-def arrow_points(pushes: tuple) -> np.ndarray:
+def arrow_points(pushes: tuple[AppliedPush, ...]) -> np.ndarray:
     """(n, 2, 3) arrows of the applied forces, each ending just outside the body it pushes."""
     pts = []
-    for _, point, force in pushes:
+    for push in pushes:
+        point, force = push.point, push.force
         u = force / max(float(np.linalg.norm(force)), 1e-9)
         tip = point - draw.ARROW_STANDOFF_M * u
         pts.append([tip - force / draw.NEWTONS_PER_METRE, tip])
@@ -136,7 +137,7 @@ class SimView:
                     if (
                         snap.history is not last_history
                         and snap.history
-                        and (t0 - last_plot >= PLOT_DT_S or not snap.playing)
+                        and (t0 - last_plot >= PLOT_DT_S or not snap.status.playing)
                     ):
                         self.live_plot.draw(snap.history)
                         last_history, last_plot = snap.history, t0
@@ -154,9 +155,9 @@ class SimView:
                 if (
                     t0 - last_status >= STATUS_DT_S
                     or self.status.is_new(snap)
-                    or (snap.resets, snap.held) != last_status_key
+                    or (snap.status.resets, snap.status.held) != last_status_key
                 ):
-                    last_status_key = (snap.resets, snap.held)
+                    last_status_key = (snap.status.resets, snap.status.held)
                     self._show_status(snap, t0)
                     last_status = t0
                 if new:  # the scene and the status line show it
@@ -189,16 +190,21 @@ class SimView:
     def _draw_snapshot(self, snap: Snapshot) -> None:
         self.draw_robot(snap)
         drop = floor_drop(snap)
-        self._place_dots(
-            [None if v is None else v - drop for v in (snap.xi, snap.xi_adj, snap.v_cmd)]
-        )
+        tick = snap.tick
+        if tick is None:
+            self._place_dots([None, None, None])
+        else:
+            c = tick.command
+            self._place_dots([c.xi - drop, c.xi_adj - drop, c.v_cmd - drop])
         self.draw_forces(snap)
-        spec = get_spec(snap.robot)
+        robot = snap.status.robot
+        spec = robot.spec
+        realised = tick.realised_steps if tick is not None else ()
         for field, steps, color, opacity, lift in (
             ("adjusted", ghost_steps(snap), draw.GHOST_COLOR, 0.25, 0.004),
-            ("realised", snap.realised_steps, draw.REALISED_COLOR, 0.6, 0.008),
+            ("realised", realised, draw.REALISED_COLOR, 0.6, 0.008),
         ):
-            key = (snap.robot, _steps_key(steps))
+            key = (robot.name, _steps_key(steps))
             if self._steps_drawn.get(field) == key:
                 continue
             self._steps_drawn[field] = key
@@ -233,11 +239,12 @@ class SimView:
     def draw_robot(self, snap: Snapshot) -> None:
         """The humanoid's meshes, or the point mass (a ball and its pendulum leg)."""
         tick = snap.tick
-        pose = tick.pose if tick is not None else None
+        pose = snap.pose
         leg = self._markers["lip_leg"]
         if pose is not None:
-            if self.robot_view is None or self.robot_view.model != snap.robot:
-                self._load_robot_view(snap.robot)
+            robot = snap.status.robot
+            if self.robot_view is None or self.robot_view.model != robot.name:
+                self._load_robot_view(robot)
             self.robot_view.set_visible(True)
             self.robot_view.update(pose)
             self._place("com", None)
@@ -246,25 +253,28 @@ class SimView:
         if self.robot_view is not None:
             self.robot_view.set_visible(False)
         self._place("com", snap.com)
-        if snap.com is None or snap.v_cmd is None or snap.tick is None:
+        if tick is None:
             leg.visible = False
             return
         # the pendulum "leg": floor point below the VRP → CoM
-        points = np.array([[snap.v_cmd - [0.0, 0.0, dz_vrp(snap)], snap.com]], np.float32)
+        v_cmd = tick.command.v_cmd
+        points = np.array([[v_cmd - [0.0, 0.0, dz_vrp(snap)], tick.state.com]], np.float32)
         if np.abs(np.asarray(leg.points) - points).max() > MARKER_TOLERANCE_M:
             leg.points = points
         leg.visible = True
 
     def draw_forces(self, snap: Snapshot) -> None:
         """Applied forces (at the pushed bodies) and the observer's estimate (above the head)."""
+        tick = snap.tick
+        pushes = tick.pushes if tick is not None else ()
         self._arrows(
-            "/sim/force", arrow_points(snap.pushes) if snap.pushes else None, draw.FORCE_COLOR,
+            "/sim/force", arrow_points(pushes) if pushes else None, draw.FORCE_COLOR,
             shaft_radius=0.018, head_radius=0.045, head_length=0.09,
         )  # fmt: skip
         f_hat = None
-        if snap.f_hat is not None and snap.com is not None and np.linalg.norm(snap.f_hat) > 2.0:
-            origin = snap.com + [0.0, 0.0, 0.95]
-            f_hat = np.array([[origin, origin + snap.f_hat / draw.NEWTONS_PER_METRE]])
+        if tick is not None and np.linalg.norm(tick.f_hat) > 2.0:
+            origin = tick.state.com + [0.0, 0.0, 0.95]
+            f_hat = np.array([[origin, origin + tick.f_hat / draw.NEWTONS_PER_METRE]])
         self._arrows(
             "/sim/f_hat", f_hat, draw.OBSERVER_COLOR,
             shaft_radius=0.012, head_radius=0.035, head_length=0.07,
@@ -292,7 +302,7 @@ class SimView:
         changes only when the robot steps up or down terrain, so the view does not bob with the
         gait).  Returns that ground point under the robot (None before there is one)."""
         tick = snap.tick
-        pose = tick.pose if tick is not None else None
+        pose = snap.pose
         anchor = pose.base_position if pose is not None else snap.com
         if anchor is None:
             return None
@@ -349,10 +359,10 @@ class SimView:
         # the point mass is clickable like the humanoid: a push at the CoM ("torso")
         self._markers["com"].on_click(lambda event: self.on_body_click("torso", event))
 
-    def _load_robot_view(self, model: str) -> None:
+    def _load_robot_view(self, robot: Robot) -> None:
         if self.robot_view is not None:
             self.robot_view.remove()
-        self.robot_view = RobotView(self.server, robot_visual(model), self.on_body_click)
+        self.robot_view = RobotView(self.server, robot, self.on_body_click)
 
 
 def ghost_steps(snap: Snapshot) -> tuple:
@@ -360,8 +370,10 @@ def ghost_steps(snap: Snapshot) -> tuple:
     GHOST_MIN_SHIFT_M from its place in the walked plan (unpushed, it moves by a hair every
     tick), then those the walked plan moved from the nominal one."""
     tick = snap.tick
-    steps = snap.adjusted_steps
-    if tick is None or not steps or tick.adjusted_step is None:
+    if tick is None:
+        return ()
+    steps = tick.adjusted_steps()
+    if not steps or tick.adjusted_step is None:
         return steps
     planned = np.asarray(tick.plan.steps[tick.adjusted_index].position)
     shift = np.linalg.norm(np.asarray(tick.adjusted_step.position)[:2] - planned[:2])

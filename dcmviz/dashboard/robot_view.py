@@ -1,4 +1,4 @@
-"""The humanoid in the scene: the shared visual model (:mod:`dcmviz.visual`) through viser's
+"""The humanoid in the scene: the shared visual model (:mod:`dcmviz.robots.visual`) through viser's
 public API.
 
 Every mesh is added once under ``/robot`` (a frame at the floating base) and then only moved.
@@ -17,9 +17,8 @@ from collections.abc import Callable
 import numpy as np
 import viser
 
-from dcmviz.backend import RobotPose
-from dcmviz.robots import get_spec
-from dcmviz.visual import RobotVisual
+from dcmviz.robots import Robot
+from dcmviz.robots.pose import RobotPose
 
 BodyClick = Callable[[str, viser.SceneNodePointerEvent], object]
 MOVE_TOLERANCE = 2e-4  # m (and quaternion components, ≈ 0.02°): smaller changes are not sent
@@ -91,13 +90,13 @@ class RobotView:
     def __init__(
         self,
         server: viser.ViserServer,
-        visual: RobotVisual,
+        robot: Robot,
         on_body_click: BodyClick | None = None,
     ) -> None:
         self.server = server
-        self.visual = visual
-        self.model = visual.model_name
-        bodies = get_spec(self.model).bodies
+        self.visual = visual = robot.visual
+        self.model = robot.name
+        bodies = robot.spec.bodies
         self.bodies = tuple(push_body(m.ancestors, bodies) for m in visual.meshes)
         self._joints: dict[str, float] | None = None
         self.parents = parent_meshes(

@@ -15,17 +15,18 @@ import numpy as np
 import viser
 
 from dcmviz.dashboard.preview import PreviewData, Sole
+from dcmviz.session.signals import FOOTSTEP_COLORS, SIDE_COLORS, SIGNALS
+from dcmviz.session.signals import color as signal_color
 
-SIDE_COLORS = {"left": (70, 130, 230), "right": (225, 80, 80)}
-DCM_COLOR = (30, 60, 200)
+DCM_COLOR = signal_color("dcm")
 VRP_WAYPOINT_COLOR = (20, 20, 20)
-MEASURED_DCM_COLOR = (0, 170, 255)
-ADJUSTED_DCM_COLOR = (255, 0, 200)
-COMMANDED_VRP_COLOR = (255, 200, 0)
-FORCE_COLOR = (230, 30, 30)
-OBSERVER_COLOR = (30, 170, 60)
-GHOST_COLOR = (255, 0, 200)
-REALISED_COLOR = (60, 60, 60)
+MEASURED_DCM_COLOR = signal_color("xi")
+ADJUSTED_DCM_COLOR = signal_color("xi_adj")
+COMMANDED_VRP_COLOR = signal_color("v_cmd")
+FORCE_COLOR = signal_color("f_ext")
+OBSERVER_COLOR = signal_color("f_hat")
+GHOST_COLOR = FOOTSTEP_COLORS["adjusted"]
+REALISED_COLOR = FOOTSTEP_COLORS["realised"]
 SOLE_THICKNESS_M = 0.006
 NEWTONS_PER_METRE = 100.0  # arrow length scale: 100 N ↔ 1 m
 SPLINE_POINTS = 150  # control points of the DCM splines (Catmull-Rom: smooth between them)
@@ -214,10 +215,10 @@ def draw_step_markers(
 # what the colours mean (markdown for the panel)
 SCENE_LEGEND = (
     "<small>On the floor (shifted down by Δz_vrp): "
-    "<span style='color:#00aaff'>●</span> measured DCM ξ · "
-    "<span style='color:#ff00c8'>●</span> adapted DCM ξ_adj · "
-    "<span style='color:#ffc800'>●</span> commanded VRP. Footsteps: "
-    "<span style='color:#ff00c8'>▭</span> adjusted (ghosts) · "
+    f"<span style='color:{SIGNALS['xi'].hex}'>●</span> measured DCM ξ · "
+    f"<span style='color:{SIGNALS['xi_adj'].hex}'>●</span> adapted DCM ξ_adj · "
+    f"<span style='color:{SIGNALS['v_cmd'].hex}'>●</span> commanded VRP. Footsteps: "
+    f"<span style='color:{SIGNALS['xi_adj'].hex}'>▭</span> adjusted (ghosts) · "
     "<span style='color:#3c3c3c'>▬</span> realised.</small>"
 )
 

@@ -14,13 +14,13 @@ NOTE_SHOW_S = 5.0  # wall seconds a change's note stays in the status line
 
 
 def walk_state(snap: Snapshot) -> str:
-    if snap.fallen:
+    if snap.status.fallen:
         return "fallen"
-    if snap.held and snap.playing:
+    if snap.status.held and snap.status.playing:
         return "about to walk"
-    if snap.done:
+    if snap.tick is not None and snap.tick.done:
         return "standing (plan done)"
-    return "walking" if snap.playing else "paused"
+    return "walking" if snap.status.playing else "paused"
 
 
 class StatusLine:
@@ -40,26 +40,26 @@ class StatusLine:
 
     def note(self, snap: Snapshot, now: float) -> str:
         """The snapshot's note while it is fresh (shown from the first time it is seen)."""
-        if snap.note_seq != self._note_seq:
-            self._note_seq = snap.note_seq
+        if snap.status.note_seq != self._note_seq:
+            self._note_seq = snap.status.note_seq
             self._note_since = now
-        return snap.note if now - self._note_since < NOTE_SHOW_S else ""
+        return snap.status.note if now - self._note_since < NOTE_SHOW_S else ""
 
     def is_new(self, snap: Snapshot) -> bool:
         """A config change was noted since the line was last written."""
-        return snap.note_seq != self._note_seq
+        return snap.status.note_seq != self._note_seq
 
     def text(self, snap: Snapshot, fps: float, now: float) -> str:
         speed = (
-            f"real-time ×{snap.real_time_factor:4.2f} · {fps:4.1f} fps · "
-            if snap.playing and not snap.fallen and not snap.held
+            f"real-time ×{snap.status.real_time_factor:4.2f} · {fps:4.1f} fps · "
+            if snap.status.playing and not snap.status.fallen and not snap.status.held
             else ""
         )
         note = self.note(snap, now)
         extra = self.extra() if self.extra is not None else ""
         return (
-            f"**{self.name()}** · {snap.robot} · {snap.backend}  \n"
-            f"t = {snap.t:6.2f} s · {speed}falls {snap.falls} · {walk_state(snap)}"
+            f"**{self.name()}** · {snap.status.robot.name if snap.status.robot else ''} · {snap.status.backend}  \n"
+            f"t = {snap.status.t:6.2f} s · {speed}falls {snap.status.falls} · {walk_state(snap)}"
             + (f"  \nlast change: *{note}*" if note else "")
             + (f"  \n{extra}" if extra else "")
         )

@@ -11,9 +11,8 @@ import math
 import viser
 
 from dcmviz.config import Config
-from dcmviz.terrain import Terrain, terrain_of
-
-TERRAIN_COLOR = (168, 158, 140)  # stone; distinct from the floor, the soles and the robot
+from dcmviz.gait.terrain import Terrain, terrain_of
+from dcmviz.session.signals import TERRAIN_COLOR
 
 
 class TerrainView:

@@ -1,5 +1,6 @@
-"""Gait planning: footsteps (generation, receding horizon), the plan (VRP waypoints, durations,
-contact schedule, closed-form preview) and swing-foot paths."""
+"""Gait planning: terrain, footsteps (generation, receding horizon), the plan (VRP waypoints,
+durations, contact schedule, closed-form preview) built by one :class:`Planner`, swing-foot paths,
+step timing, feasibility, and a :class:`Walk` along the plans (feet placed, swing, landings)."""
 
 from dcmviz.gait.feasibility import PlanWarning, check_plan
 from dcmviz.gait.footsteps import (
@@ -9,18 +10,12 @@ from dcmviz.gait.footsteps import (
     on_terrain,
     plan_footsteps,
 )
-from dcmviz.gait.plan import (
-    START_SPLIT,
-    ContactState,
-    GaitPlan,
-    Timing,
-    build_plan,
-    plan_from_config,
-    timing_of,
-)
+from dcmviz.gait.plan import START_SPLIT, ContactState, GaitPlan, Timing, build_plan, timing_of
+from dcmviz.gait.planner import Planner, horizon_count, plan_from_config
 from dcmviz.gait.swing import RETARGET_FREEZE, SWING_HEIGHT_M, SwingTrajectory
+from dcmviz.gait.walk import StepRecord, Walk
+from dcmviz.robots.feet import OTHER, SIDE_SIGN, Footstep
 from dcmviz.robots.reach import clamp_to_reach, reach_problem
-from dcmviz.state import OTHER, SIDE_SIGN, Footstep
 
 __all__ = [
     "OTHER",
@@ -34,6 +29,10 @@ __all__ = [
     "SwingTrajectory",
     "Timing",
     "PlanWarning",
+    "Planner",
+    "StepRecord",
+    "Walk",
+    "horizon_count",
     "build_plan",
     "check_plan",
     "clamp_to_reach",

@@ -29,6 +29,7 @@ import numpy as np
 from dcmviz.config import Config
 from dcmviz.gait.height import REACH_FRACTION, leg_span_m, step_heights
 from dcmviz.gait.plan import GaitPlan
+from dcmviz.robots.feet import SIDE_SIGN, Footstep
 from dcmviz.robots.geometry import (
     convex_hull,
     hull_depth,
@@ -38,7 +39,6 @@ from dcmviz.robots.geometry import (
 )
 from dcmviz.robots.reach import reach_problem
 from dcmviz.robots.spec import RobotSpec
-from dcmviz.state import SIDE_SIGN, Footstep
 
 SUPPORT_MARGIN_M = 0.01  # a VRP waypoint's ground point must be ≥ 1 cm inside the support polygon
 # a plan that walks lower than Δz_vrp by more than this (m) says so: within it the CoM height is

@@ -15,9 +15,9 @@ import math
 import numpy as np
 
 from dcmviz.config import GaitSection
+from dcmviz.gait.terrain import Terrain
+from dcmviz.robots.feet import OTHER, SIDE_SIGN, Footstep
 from dcmviz.robots.reach import generated_step_offset
-from dcmviz.state import OTHER, SIDE_SIGN, Footstep
-from dcmviz.terrain import Terrain
 
 
 def _heading_offset(yaw: float, side: str, width: float) -> np.ndarray:

@@ -24,8 +24,8 @@ import math
 
 import numpy as np
 
+from dcmviz.robots.feet import Footstep
 from dcmviz.robots.spec import RobotSpec
-from dcmviz.state import Footstep
 
 # the CoM at touchdown is not yet in the middle of the feet: the swinging leg reaches further
 # than half the stride (measured on Talos and the G1: the legs stretch as far as at s = 0.6 L)

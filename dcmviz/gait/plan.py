@@ -22,14 +22,11 @@ from functools import cached_property
 
 import numpy as np
 
-from dcmviz.config import Config, GaitSection
-from dcmviz.dcm import Preview, continuity_waypoints, vrp_height
-from dcmviz.gait.footsteps import on_terrain, plan_footsteps
+from dcmviz.config import GaitSection
+from dcmviz.dcm import Preview, adjustment_gain, continuity_waypoints, vrp_height
 from dcmviz.gait.height import step_heights
-from dcmviz.robots.registry import get_spec
+from dcmviz.robots.feet import OTHER, Footstep
 from dcmviz.robots.spec import RobotSpec
-from dcmviz.state import OTHER, Footstep
-from dcmviz.terrain import terrain_of
 
 START_SPLIT = 0.5  # fraction of t_start spent in start_a (mid0 → w2); the rest in start_b
 
@@ -123,6 +120,36 @@ class GaitPlan:
                 following = self.phase_step[p]
             out[p] = following
         return tuple(out)
+
+    def adjustment_gain(self, k: int) -> float:
+        """A_adj of footstep k (eq. 32) as a scalar, computed once per plan and footstep.
+
+        The paper's condition (eq. 31) asks the adjustment to cancel ξ̃ at the start of the first
+        phase footstep k moves.  The closing footstep of a plan only moves the final standing
+        point, with weight 1/2, and barely moves the DCM at that instant (A_adj of 9–16, 3.5e7
+        for order 0 with a long T_stop): a small error would saturate it at the reach limit.
+        For it the condition is taken where the plan ends, where ξ_ref_T equals the final VRP
+        (terminal constraint, eq. 17): A_adj = 2.
+        """
+        gains = self._gains
+        if k not in gains:
+            selection = self.selection(k)
+            if self.is_closing_step(k):
+                gains[k] = 1.0 / float(self.preview.W_xi_ref_T[-1] @ selection)
+            else:
+                gains[k] = adjustment_gain(self.preview, self.first_affected_phase(k), selection)
+        return gains[k]
+
+    @cached_property
+    def _gains(self) -> dict[int, float]:
+        return {}
+
+    def adjustment_instant(self, k: int) -> float:
+        """Global time of footstep k's adjustment instant (eq. 31): the start of its first
+        affected phase, or the end of the plan for the closing step."""
+        if self.is_closing_step(k):
+            return self.t_end
+        return self.phase_start(self.first_affected_phase(k))
 
     def stance_for(self, k: int) -> Footstep:
         """The foot that stands while footstep k swings."""
@@ -347,29 +374,3 @@ def build_plan(
 
 def timing_of(gait: GaitSection) -> Timing:
     return Timing(gait.t_ss, gait.t_ds, gait.t_start, gait.t_stop)
-
-
-def plan_from_config(
-    config: Config,
-    start_feet: dict[str, Footstep] | None = None,
-    start_com: np.ndarray | None = None,
-) -> GaitPlan:
-    """The plan-mode walk of a preset: stand → footsteps → stand.
-
-    From ``start_feet`` and ``start_com`` where the robot stands (the walker passes what it
-    measures); by default from the feet at (0, ±step_width/2, 0) with the CoM Δz_vrp above them.
-    """
-    feet, steps = plan_footsteps(config.gait)
-    terrain = terrain_of(config.terrain)
-    steps = on_terrain(steps, terrain)
-    if start_feet is None:  # standing on the ground where the plan starts
-        start_feet = dict(zip(feet, on_terrain(tuple(feet.values()), terrain), strict=True))
-    return build_plan(
-        start_feet,
-        steps,
-        timing_of(config.gait),
-        config.dcm.b,
-        config.dcm.order,
-        start_com=start_com,
-        spec=get_spec(config.robot.model),
-    )

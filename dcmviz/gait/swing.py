@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dcmviz.state import Footstep
-from dcmviz.terrain import Terrain
+from dcmviz.gait.terrain import Terrain
+from dcmviz.robots.feet import Footstep
 
 SWING_HEIGHT_M = 0.06  # apex of the swing above the higher of lift-off and touchdown
 RETARGET_FREEZE = 0.8  # the swing target is frozen for the last 20 % of single support

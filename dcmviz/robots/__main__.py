@@ -5,7 +5,8 @@ from __future__ import annotations
 import sys
 
 from dcmviz.robots.file import BUILTIN_ROBOTS, RobotFileError
-from dcmviz.robots.model import build_model, report
+from dcmviz.robots.report import report
+from dcmviz.robots.robot import load_robot
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -17,9 +18,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0 if args else 2
     for model in args:
         try:
-            print(report(build_model(model)))
+            print(report(load_robot(model).model))
         except RobotFileError as err:
-            print(f"robot.model = {model!r}: {err}", file=sys.stderr)
+            print(err, file=sys.stderr)
             return 2
     return 0
 

@@ -259,7 +259,7 @@ class RobotFile(_Table):
             return v
         from dataclasses import fields
 
-        from dcmviz.sim.wbc.gains import Gains
+        from dcmviz.robots.gains import Gains
 
         allowed = {f.name for f in fields(Gains)}
         for key in v:

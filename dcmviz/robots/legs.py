@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 
+from dcmviz.robots.feet import SIDES
 from dcmviz.robots.file import RobotFile
 from dcmviz.robots.file import file_error as _err
-from dcmviz.state import SIDES
 
 
 def suggest(names: list[str], words: tuple[str, ...]) -> str:

@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
+from dcmviz.robots.feet import OTHER, SIDE_SIGN, Footstep
 from dcmviz.robots.spec import RobotSpec
-from dcmviz.state import OTHER, SIDE_SIGN, Footstep
 
 
 def generated_step_offset(

@@ -18,10 +18,11 @@ import math
 import numpy as np
 
 from dcmviz import GRAVITY
-from dcmviz.robots import RobotSpec, get_spec
+from dcmviz.gait.terrain import Terrain
+from dcmviz.robots import Robot, RobotSpec
+from dcmviz.robots.feet import SIDES
 from dcmviz.robots.geometry import convex_hull, project_to_polygon, sole_corners
-from dcmviz.state import SIDES, MeasuredState, WalkerCommand
-from dcmviz.terrain import Terrain
+from dcmviz.walker.state import MeasuredState, WalkerCommand
 
 E_Z = np.array([0.0, 0.0, 1.0])
 
@@ -32,9 +33,9 @@ class LipBackend:
     name = "lip"
 
     def __init__(
-        self, robot: str = "talos", *, control_dt: float = 0.005, terrain: Terrain | None = None
+        self, robot: Robot, *, control_dt: float = 0.005, terrain: Terrain | None = None
     ) -> None:
-        self.spec: RobotSpec = get_spec(robot)
+        self.spec: RobotSpec = robot.spec
         self.terrain = terrain if terrain is not None else Terrain()
         self.mass = self.spec.mass_kg
         self.b = self.spec.b_nominal_s  # of the robot standing at its own CoM height

@@ -16,23 +16,24 @@ import mujoco
 import numpy as np
 
 from dcmviz import GRAVITY
-from dcmviz.backend import RobotPose
-from dcmviz.sim.robots import SIDES, Robot, load_robot
+from dcmviz.gait.terrain import Terrain
+from dcmviz.robots import SIDES, Robot
+from dcmviz.robots.mujoco_model import FRICTION
+from dcmviz.robots.pose import RobotPose
 from dcmviz.sim.wbc import Context, Gains, MomentObserver, WholeBodyController
-from dcmviz.state import FootTarget, MeasuredState, WalkerCommand
-from dcmviz.terrain import Terrain
+from dcmviz.walker.state import FootTarget, MeasuredState, WalkerCommand
 
-TERRAIN_FRICTION = (1.0, 0.005, 0.0001)  # as the floor's (dcmviz.sim.robots)
+TERRAIN_FRICTION = FRICTION  # as the floor's
 
 # the clock of ``timings``: wall time; bench/sim.py may set CPU time (time.thread_time)
 _clock = time.perf_counter
 
 
 def terrain_model(robot: Robot, terrain: Terrain) -> mujoco.MjModel:
-    """The robot's scene (robot + floor, ``Robot.mj_spec``) with the terrain's boxes added: each
+    """The robot's scene (robot + floor, ``robot.mujoco.spec``) with the terrain's boxes added: each
     a box geom from the floor up to its top face, colliding with the soles like the floor does
     (same contact type, affinity and friction)."""
-    spec = robot.mj_spec.copy()
+    spec = robot.mujoco.spec.copy()
     for i, box in enumerate(terrain.boxes):
         centre, half = box.solid
         geom = spec.worldbody.add_geom(
@@ -57,7 +58,7 @@ class MujocoBackend:
 
     def __init__(
         self,
-        robot: str = "talos",
+        robot: Robot,
         *,
         control_dt: float = 0.002,
         physics_dt: float = 0.001,
@@ -68,7 +69,8 @@ class MujocoBackend:
             raise ValueError(f"control_dt = {control_dt!r}: must be > 0")
         if not (np.isfinite(physics_dt) and 0 < physics_dt <= control_dt):
             raise ValueError(f"physics_dt = {physics_dt!r}: must be in (0, control_dt]")
-        self.robot: Robot = load_robot(robot)
+        self.robot: Robot = robot
+        self.scene = robot.mujoco  # the robot's MuJoCo model (robot, floor, soles, motors)
         self.spec = self.robot.spec
         self.mass = self.robot.mass
         self.control_dt = float(control_dt)
@@ -76,7 +78,7 @@ class MujocoBackend:
         self.n_substeps = max(1, round(control_dt / physics_dt))
         self.terrain = terrain if terrain is not None else Terrain()
         if self.terrain.flat:
-            self.model = copy.deepcopy(self.robot.mj_model)  # own timestep, independent of others
+            self.model = copy.deepcopy(self.scene.model)  # own timestep, independent of others
         else:
             self.model = terrain_model(self.robot, self.terrain)
         # ground height (m) under the standing soles at (0, ±spacing/2): the robot starts on it
@@ -107,9 +109,9 @@ class MujocoBackend:
         self.t = 0.0
         self._sink = 0.0
         self.reset()
-        if self.robot.contact_sink_m is None:
-            self.robot.contact_sink_m = self._settled_sink()
-        self._sink = self.robot.contact_sink_m
+        if self.scene.contact_sink_m is None:
+            self.scene.contact_sink_m = self._settled_sink()
+        self._sink = self.scene.contact_sink_m
         self.reset()
 
     def _settled_sink(self, duration: float = 0.3) -> float:
@@ -142,7 +144,7 @@ class MujocoBackend:
         there (sunk by the settled contact depth, < 1 mm), zero velocity, no external force,
         t = 0."""
         mujoco.mj_resetData(self.model, self.data)
-        self.data.qpos[:] = self.robot.qpos_mj(self.robot.q_nominal)
+        self.data.qpos[:] = self.scene.qpos_mj(self.robot.q_nominal)
         self.data.qpos[2] -= self._sink  # soles as deep as they settle under the weight
         if self._ground:
             self.data.qpos[2] += self._ground  # standing on the terrain under the feet
@@ -160,8 +162,8 @@ class MujocoBackend:
     def _update(self) -> Context:
         t0 = _clock()
         d = self.data
-        q = self.robot.q_pin(d.qpos)
-        v = self.robot.v_pin(d.qpos, d.qvel)
+        q = self.scene.q_pin(d.qpos)
+        v = self.scene.v_pin(d.qpos, d.qvel)
         self._ctx = self.wbc.kinematics.context(q, v)
         t1 = _clock()
         self._measure_contacts()
@@ -259,7 +261,7 @@ class MujocoBackend:
         d = self.data
         if not self.terrain.flat:
             return self._fell_on_terrain()
-        floor = min(d.site_xpos[self.robot.sole_sites[s]][2] for s in SIDES)
+        floor = min(d.site_xpos[self.scene.sole_sites[s]][2] for s in SIDES)
         base_z = d.qpos[2] - floor
         nominal = self.robot.q_nominal[2]
         up = d.xmat[1][8]  # cos(tilt) of the root body
@@ -279,7 +281,7 @@ class MujocoBackend:
     def qpos_by_joint(self) -> dict[str, float]:
         """Angle (rad) of every URDF joint: the simulated legs and the locked upper body."""
         angles = dict(self.robot.locked_joints)
-        for joint, adr in zip(self.robot.joint_names, self.robot.qpos_adr, strict=True):
+        for joint, adr in zip(self.robot.joint_names, self.scene.qpos_adr, strict=True):
             angles[joint] = float(self.data.qpos[adr])
         return angles
 

@@ -38,7 +38,7 @@ of ``sim.duration``.
 
 Outputs in ``--out``: ``envelope.json``, ``envelope.csv``, ``envelope.png`` (polar plot), or the
 map's, or ``ramp.json``; and ``rollouts.jsonl``.  Exit 2 with a one-line reason for bad input,
-130 when interrupted.  Tuning (Ray Tune + Optuna) is ``python -m dcmviz.tune``
+130 when interrupted.  Tuning (Ray Tune + Optuna) is ``python -m dcmviz.sweep.tune``
 (:mod:`dcmviz.sweep.tuning`).
 
 Modules: ``search`` (rollouts and the boundary search), ``store`` (rollouts on disk),
@@ -47,6 +47,7 @@ test, fixed probes), ``maps``, ``tuning``, ``report`` (metrics, tables, JSON/CSV
 ``cli`` (the command line, ``main``).
 """
 
+from dcmviz.sweep.cells import Cell, RolloutEvent, SweepRun
 from dcmviz.sweep.cli import PROG, build_parser, main
 from dcmviz.sweep.experiments import (
     CONTROLLERS,
@@ -67,17 +68,8 @@ from dcmviz.sweep.report import (
     table,
     write_envelope,
 )
-from dcmviz.sweep.runner import (
-    Cell,
-    RayRunner,
-    RolloutEvent,
-    SerialRunner,
-    SweepRun,
-    make_runner,
-    open_runner,
-    ray_init,
-    run_cells,
-)
+from dcmviz.sweep.runner import RayRunner, SerialRunner, make_runner, open_runner, ray_init
+from dcmviz.sweep.scheduler import run_cells
 from dcmviz.sweep.search import (
     Boundary,
     BoundarySearch,

@@ -25,7 +25,6 @@ but tips the trunk past the fall criterion.
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
@@ -33,8 +32,8 @@ import numpy as np
 from dcmviz import GRAVITY
 from dcmviz.config import Config
 from dcmviz.gait import plan_from_config
-from dcmviz.robots import get_spec
-from dcmviz.state import SIDE_SIGN
+from dcmviz.robots import load_robot
+from dcmviz.robots.feet import SIDE_SIGN
 from dcmviz.sweep.search import push_window
 
 
@@ -46,26 +45,6 @@ def edge_impulse(
     push ``lever_m`` above the CoM and its moment taken by the feet (the CMP moved inwards)."""
     gain = b * b + lever_m / GRAVITY
     return edge_distance_m * mass_kg * duration_s / (gain * (1.0 - math.exp(-duration_s / b)))
-
-
-@functools.lru_cache(maxsize=16)
-def push_lever(robot: str, body: str) -> float:
-    """Height (m) of the CoM of the body a humanoid is pushed at (alias or link, as the MuJoCo
-    simulation applies the force) above the robot's CoM, in its nominal standing posture."""
-    import mujoco  # only for a humanoid
-
-    from dcmviz.sim.robots import load_robot
-
-    r = load_robot(robot)
-    model = r.mj_model
-    data = mujoco.MjData(model)
-    data.qpos[:] = r.qpos_mj(r.q_nominal)
-    mujoco.mj_forward(model, data)
-    link = r.spec.bodies.get(body, body)
-    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, link)
-    if bid < 0:
-        raise ValueError(f"body {body!r}: not a body of {robot}")
-    return float(data.xipos[bid][2] - data.subtree_com[0][2])
 
 
 def stance_edge_bound(
@@ -85,7 +64,8 @@ def stance_edge_bound(
     plan = plan_from_config(config)
     start, _, _ = push_window(config, step, phase)
     stance = plan.stance_for(step - 1)
-    spec = get_spec(config.robot.model)
+    robot = load_robot(config.robot.model)
+    spec = robot.spec
     outward = SIDE_SIGN[stance.side] * np.array([-math.sin(stance.yaw), math.cos(stance.yaw)])
     cos = float(outward @ np.array([math.cos(angle_rad), math.sin(angle_rad)]))
     if cos <= 1e-9:
@@ -93,5 +73,5 @@ def stance_edge_bound(
     xi0 = plan.preview.dcm(start - plan.t0)[:2]
     edge = float(outward @ stance.position[:2]) + 0.5 * spec.foot_width_m
     distance = edge - float(outward @ xi0)
-    lever = 0.0 if backend == "lip" else push_lever(config.robot.model, body)
+    lever = 0.0 if backend == "lip" else robot.push_lever_m(body)
     return edge_impulse(distance, spec.mass_kg, config.dcm.b, duration_s, lever) / cos

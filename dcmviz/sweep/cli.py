@@ -11,8 +11,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from dcmviz.cli import BadInput, Parser, fraction, positive_int, positive_seconds
 from dcmviz.config import ConfigError, load_preset
+from dcmviz.run.args import BadInput, Parser, fraction, positive_int, positive_seconds
 from dcmviz.sweep.experiments import (
     CONTROLLERS,
     PRESET_CONTROLLER,
@@ -31,7 +31,7 @@ PROG = "dcmviz.sweep"
 
 
 def add_execution_args(p: argparse.ArgumentParser) -> None:
-    """--jobs, --address, --no-progress (shared with dcmviz.tune)."""
+    """--jobs, --address, --no-progress (shared with dcmviz.sweep.tune)."""
     p.add_argument(
         "--jobs",
         type=positive_int,
@@ -43,7 +43,7 @@ def add_execution_args(p: argparse.ArgumentParser) -> None:
 
 
 def add_envelope_args(p: argparse.ArgumentParser, *, directions: int = 8) -> None:
-    """The push and search settings of an envelope (shared with dcmviz.tune)."""
+    """The push and search settings of an envelope (shared with dcmviz.sweep.tune)."""
     p.add_argument("--sim", choices=("lip", "mujoco"), default=None, help="default: lip")
     p.add_argument("--directions", type=positive_int, default=directions, help="evenly spaced")
     p.add_argument("--push-duration", type=positive_seconds, default=0.2, help="s")
@@ -147,6 +147,14 @@ def _error(exc: BaseException) -> int:
     return 2
 
 
+def check_step(config, settings) -> None:
+    """BadInput naming ``--step`` if the preset's plan has no such step."""
+    try:
+        push_window(config, settings.step, settings.phase)
+    except ValueError as err:
+        raise BadInput(f"--{err}") from None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point; returns the exit status (0 done, 2 bad input, 130 interrupted)."""
     try:
@@ -167,7 +175,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if len(axes) > 2:
             raise BadInput(f"--grid: give one or two keys, got {len(axes)}")
         if not args.ramp_test:
-            push_window(config, settings.step, settings.phase)  # validates --step
+            check_step(config, settings)
         out = Path(args.out)
         if out.exists() and not out.is_dir():
             raise BadInput(f"--out {args.out!r}: exists and is not a directory")
@@ -192,7 +200,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             result = envelope(config, settings, execution)
             paths = write_envelope(result, out)
             print(table(result))
-    except (BadInput, ConfigError, ConnectionError) as exc:
+    except (BadInput, ConfigError, ValueError, ConnectionError) as exc:
         return _error(exc)
     except KeyboardInterrupt:
         print(

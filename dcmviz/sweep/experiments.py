@@ -1,7 +1,7 @@
 """The sweep experiments: the push-recovery envelope (largest impulse per push direction and
 controller), the ramp test (largest held force of the preset's ramped push per controller), and
-the fixed-push probes behind the tracking objective.  Each builds :class:`~dcmviz.sweep.runner.Cell`
-searches and runs them with :func:`~dcmviz.sweep.runner.run_cells` (serially or on Ray)."""
+the fixed-push probes behind the tracking objective.  Each builds :class:`~dcmviz.sweep.cells.Cell`
+searches and runs them with :func:`~dcmviz.sweep.scheduler.run_cells` (serially or on Ray)."""
 
 from __future__ import annotations
 
@@ -15,21 +15,14 @@ from typing import Any
 import numpy as np
 
 from dcmviz import GRAVITY
-from dcmviz.cli import BadInput
 from dcmviz.config import Config, ControlSection
 from dcmviz.gait import plan_from_config
-from dcmviz.robots import get_spec
+from dcmviz.robots import load_robot
 from dcmviz.sweep.bounds import stance_edge_bound
+from dcmviz.sweep.cells import Cell, CellOutcome, RolloutEvent, SweepRun
 from dcmviz.sweep.report import ratios
-from dcmviz.sweep.runner import (
-    Cell,
-    CellOutcome,
-    RolloutEvent,
-    Runner,
-    SweepRun,
-    make_runner,
-    run_cells,
-)
+from dcmviz.sweep.runner import Runner, make_runner
+from dcmviz.sweep.scheduler import run_cells
 from dcmviz.sweep.search import Trial, push_window
 from dcmviz.sweep.store import RolloutStore
 
@@ -284,12 +277,12 @@ def ramp_test(
     """Bisect the held force of the preset's (first) ramped push for each controller."""
     ramped = [p for p in config.pushes if p.ramp > 0.0]
     if not ramped:
-        raise BadInput("--ramp-test: the preset has no ramped push (pushes[*].ramp > 0)")
+        raise ValueError("ramp test: the preset has no ramped push (pushes[*].ramp > 0)")
     push = ramped[0]
     force = np.array(push.force, dtype=float)
     unit = tuple(float(u) for u in force / np.linalg.norm(force))
     base = config.replace(pushes=[])
-    mass = get_spec(config.robot.model).mass_kg
+    mass = load_robot(config.robot.model).spec.mass_kg
     cells = []
     for name in settings.controllers:
         trial = Trial(

@@ -2,7 +2,7 @@
 (``--grid control.k_xi=1:6:6 dcm.b=0.28:0.32:3``), reduced to one number per point (the weakest
 direction's impulse, or ``--metric``), as a heatmap with the preset's own values marked, and CSV.
 
-All points' envelope searches run as one sweep (:func:`~dcmviz.sweep.runner.run_cells`), so the
+All points' envelope searches run as one sweep (:func:`~dcmviz.sweep.scheduler.run_cells`), so the
 rollouts of every point and direction share the workers.
 """
 
@@ -18,7 +18,6 @@ from typing import Any
 
 import numpy as np
 
-from dcmviz.cli import BadInput
 from dcmviz.config import Config, ConfigError, config_from_dict
 from dcmviz.sweep.experiments import (
     PRESET_CONTROLLER,
@@ -56,30 +55,30 @@ def parse_axis(text: str, config: Config) -> Axis:
     key = key.strip()
     form = "section.key=start:stop:count, e.g. control.k_xi=1:6:6"
     if not sep:
-        raise BadInput(f"--grid {text!r}: expected {form} (the coarse grid size is --coarse)")
+        raise ValueError(f"--grid {text!r}: expected {form} (the coarse grid size is --coarse)")
     parts = key.split(".")
     data = config.to_dict()
     if len(parts) != 2 or not isinstance(data.get(parts[0]), dict):
         sections = [k for k, v in data.items() if isinstance(v, dict)]
-        raise BadInput(f"--grid {text!r}: the key must be section.key with section in {sections}")
+        raise ValueError(f"--grid {text!r}: the key must be section.key with section in {sections}")
     section, name = parts
     current = data[section].get(name)
     if isinstance(current, bool) or not isinstance(current, int | float):
         numeric = [k for k, v in data[section].items() if type(v) in (int, float)]
-        raise BadInput(
+        raise ValueError(
             f"--grid {text!r}: {key} is not a number key; numbers in [{section}]: {numeric}"
         )
     try:
         start_s, stop_s, count_s = spec.split(":")
         start, stop, count = float(start_s), float(stop_s), int(count_s)
     except ValueError:
-        raise BadInput(f"--grid {text!r}: expected {form}") from None
+        raise ValueError(f"--grid {text!r}: expected {form}") from None
     if count < 1 or not (math.isfinite(start) and math.isfinite(stop)):
-        raise BadInput(f"--grid {text!r}: start and stop must be finite and count ≥ 1")
+        raise ValueError(f"--grid {text!r}: start and stop must be finite and count ≥ 1")
     values = [float(f"{v:.12g}") for v in np.linspace(start, stop, count)]
     if type(current) is int:
         if any(v != round(v) for v in values):
-            raise BadInput(f"--grid {text!r}: {key} takes integers, got {values}")
+            raise ValueError(f"--grid {text!r}: {key} takes integers, got {values}")
         values = [int(round(v)) for v in values]
     return Axis(key, tuple(values))
 
@@ -106,9 +105,9 @@ def gain_map(
 ) -> dict[str, Any]:
     """Envelope metric at every grid point (C order: the last axis varies fastest)."""
     if not 1 <= len(axes) <= 2:
-        raise BadInput(f"--grid: give one or two keys, got {len(axes)}")
+        raise ValueError(f"--grid: give one or two keys, got {len(axes)}")
     if metric not in METRICS:
-        raise BadInput(f"--metric {metric!r}: allowed {', '.join(METRICS)}")
+        raise ValueError(f"--metric {metric!r}: allowed {', '.join(METRICS)}")
     points = list(itertools.product(*(a.values for a in axes)))
     configs = [point_config(config, axes, p) for p in points]  # all validated before running
     cells = []

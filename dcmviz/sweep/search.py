@@ -15,7 +15,6 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from dcmviz.cli import BadInput
 from dcmviz.config import Config
 from dcmviz.gait import plan_from_config
 from dcmviz.session import Session
@@ -240,6 +239,6 @@ def push_window(config: Config, step: int, phase: float) -> tuple[float, float, 
     support (``step`` 1-based, in the nominal plan)."""
     plan = plan_from_config(config)
     if not 1 <= step <= len(plan.steps):
-        raise BadInput(f"--step {step}: the preset's plan has steps 1..{len(plan.steps)}")
+        raise ValueError(f"step {step}: the preset's plan has steps 1..{len(plan.steps)}")
     t_lift, t_touch = plan.swing_window(step - 1)
     return t_lift + phase * (t_touch - t_lift), t_lift, t_touch

@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from dcmviz.config import Config, ConfigError, config_from_dict, save_preset
-from dcmviz.robots import get_spec
+from dcmviz.robots import load_robot
 from dcmviz.sweep.experiments import (
     PRESET_CONTROLLER,
     Execution,
@@ -82,7 +82,7 @@ def _inward(lo: float, hi: float) -> tuple[float, float]:
 
 def search_space(config: Config) -> list[Param]:
     """The searched keys for this preset and robot (see module doc)."""
-    spec = get_spec(config.robot.model)
+    spec = load_robot(config.robot.model).spec
     b_range = getattr(spec, "b_range_s", None)
     if b_range is None:
         b_range = (0.9 * spec.b_nominal_s, 1.1 * spec.b_nominal_s)

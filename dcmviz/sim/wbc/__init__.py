@@ -7,6 +7,7 @@ foot wrenches sit in the decision vector), :mod:`.context` (Pinocchio evaluated 
 from whatever tasks and constraints it holds, solved with daqp).
 """
 
+from dcmviz.robots.gains import Gains
 from dcmviz.sim.wbc.constraints import (
     Constraint,
     ContactWrenchCone,
@@ -16,7 +17,6 @@ from dcmviz.sim.wbc.constraints import (
     TorqueLimits,
 )
 from dcmviz.sim.wbc.context import Context, Kinematics
-from dcmviz.sim.wbc.gains import Gains
 from dcmviz.sim.wbc.layout import Layout
 from dcmviz.sim.wbc.moment_observer import MomentObserver
 from dcmviz.sim.wbc.solver import Solution, WholeBodyController

@@ -9,11 +9,11 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from dcmviz.sim.robots import SIDES, Robot
+from dcmviz.robots import SIDES, Robot
+from dcmviz.robots.gains import Gains
 from dcmviz.sim.wbc.context import Context
-from dcmviz.sim.wbc.gains import Gains
 from dcmviz.sim.wbc.layout import Layout
-from dcmviz.state import WalkerCommand
+from dcmviz.walker.state import WalkerCommand
 
 INF = 1e30  # a bound daqp reads as none
 

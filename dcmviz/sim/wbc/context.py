@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from dcmviz.sim.robots import Robot
+from dcmviz.robots import Robot
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 

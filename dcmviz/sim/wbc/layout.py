@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dcmviz.sim.robots import SIDES
+from dcmviz.robots import SIDES
 
 
 class Layout:

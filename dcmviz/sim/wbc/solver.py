@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import daqp
 import numpy as np
 
-from dcmviz.sim.robots import SIDES, Robot
+from dcmviz.robots import SIDES, Robot
+from dcmviz.robots.gains import Gains
 from dcmviz.sim.wbc.constraints import (
     INF,
     Constraint,
@@ -33,7 +34,6 @@ from dcmviz.sim.wbc.constraints import (
     TorqueLimits,
 )
 from dcmviz.sim.wbc.context import Context, Kinematics
-from dcmviz.sim.wbc.gains import Gains
 from dcmviz.sim.wbc.layout import Layout
 from dcmviz.sim.wbc.tasks import (
     AngularMomentumTask,
@@ -44,7 +44,7 @@ from dcmviz.sim.wbc.tasks import (
     PostureTask,
     Task,
 )
-from dcmviz.state import WalkerCommand
+from dcmviz.walker.state import WalkerCommand
 
 # the clock of ``timings``: wall time; bench/sim.py may set CPU time (time.thread_time)
 _clock = time.perf_counter

@@ -13,10 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from dcmviz.sim.robots import SIDES, Robot
+from dcmviz.robots import SIDES, Robot
 from dcmviz.sim.wbc.context import Context
 from dcmviz.sim.wbc.layout import Layout
-from dcmviz.state import WalkerCommand
+from dcmviz.walker.state import WalkerCommand
 
 
 def _rot_z(yaw: float) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Multi-step adjustment: the paper's linear maps, several footsteps, one small QP (issue 11).
+"""The multi-step recovery QP: the paper's linear maps, several footsteps, one small QP (issue 11).
 
 The paper adjusts the next footstep only (eqs. 27–35) and names the general case future work
 ("each element of this VRP adjustment vector could be used independently … formulated as an
@@ -48,7 +48,7 @@ import daqp
 import numpy as np
 
 from dcmviz.robots import RobotSpec
-from dcmviz.state import SIDE_SIGN, Footstep
+from dcmviz.robots.feet import SIDE_SIGN, Footstep
 
 CONDITION_WEIGHT = 1e4  # ρ: how strongly Σ c_j Δv_j = ξ̃ (eq. 31) is asked for
 SLACK_WEIGHT = 1e7  # weight of σ, the part of ε the CoP cannot remove (``capacity``)

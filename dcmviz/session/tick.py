@@ -11,10 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dcmviz.backend import RobotPose
-from dcmviz.gait import GaitPlan
-from dcmviz.state import Footstep, MeasuredState, WalkerCommand
-from dcmviz.walker import StepRecord
+from dcmviz.gait import GaitPlan, StepRecord
+from dcmviz.robots import Robot
+from dcmviz.robots.feet import Footstep
+from dcmviz.robots.pose import RobotPose
+from dcmviz.walker.state import MeasuredState, WalkerCommand
 
 
 @dataclass(frozen=True)
@@ -32,7 +33,7 @@ class Tick:
 
     index: int  # ticks since the last reset
     t: float  # s, simulation time of the command (the state is measured one tick later)
-    robot: str
+    robot: Robot  # the robot walked (spec, models, visual), loaded once by the session
     backend: str
     state: MeasuredState  # what the backend measured after the tick
     command: WalkerCommand  # what the walker asked for this tick (ξ, ξ_ref, ξ_adj, v_ref, v_cmd …)

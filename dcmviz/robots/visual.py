@@ -4,10 +4,10 @@ Built from the robot's full URDF through Pinocchio's visual :class:`pinocchio.Ge
 (mesh paths resolve into example-robot-data's ``share/example-robot-data/robots``), or from its
 MJCF's geoms (``pin.buildGeomFromMJCF``) for an MJCF robot.  A
 :class:`RobotVisual` holds every visual mesh once (vertices in its own frame, colour, the link
-it hangs on) and poses them from a :class:`~dcmviz.backend.RobotPose`: floating base plus joint
+it hangs on) and poses them from a :class:`~dcmviz.sim.backend.RobotPose`: floating base plus joint
 angles by URDF joint name, any joint not given at the robot's nominal posture.
 
-    visual = robot_visual("talos")
+    visual = load_robot("talos").visual
     poses = visual.in_world(tick.pose)   # poses.position[i], poses.wxyz[i] place visual.meshes[i]
 
 No viser and no rerun here: each shell draws the same meshes with its own public API.
@@ -25,9 +25,10 @@ import pinocchio as pin
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from dcmviz.backend import RobotPose
-from dcmviz.heap import release_freed_memory
-from dcmviz.sim.robots import robot_source, robots_dir
+from dcmviz.robots.file import example_robot_data_dir
+from dcmviz.robots.heap import release_freed_memory
+from dcmviz.robots.model import RobotModel
+from dcmviz.robots.pose import RobotPose
 
 
 @dataclass(frozen=True)
@@ -89,7 +90,9 @@ def _read_visuals(
         model = pin.buildModelFromMJCFAndRootJoint(path, pin.JointModelFreeFlyer())
         geometry = pin.buildGeomFromMJCF(model, path, pin.GeometryType.VISUAL)
     else:
-        share = os.path.dirname(os.path.dirname(robots_dir()))  # package://example-robot-data/…
+        share = os.path.dirname(
+            os.path.dirname(example_robot_data_dir())
+        )  # package://example-robot-data/…
         model = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())
         geometry = pin.buildGeomFromUrdf(model, path, pin.GeometryType.VISUAL, package_dirs=[share])
     meshes, joints, placements = [], [], []
@@ -115,18 +118,13 @@ def _read_visuals(
     return model, tuple(meshes), np.array(joints, int), placements
 
 
-def urdf_path(model_name: str) -> str:
-    """The robot's full URDF or MJCF (the one the simulation edits), absolute."""
-    return os.path.join(robots_dir(), robot_source(model_name).urdf)
-
-
 class RobotVisual:
     """The visual meshes of one robot and the kinematics that place them."""
 
-    def __init__(self, model_name: str) -> None:
-        self.model_name = model_name
-        path = urdf_path(model_name)
-        self.model, meshes, joints, placements = _read_visuals(path)
+    def __init__(self, name: str, rm: RobotModel) -> None:
+        """The visual model of robot ``name`` (``robot.model``) built as ``rm``."""
+        self.model_name = name
+        self.model, meshes, joints, placements = _read_visuals(rm.file.model_path)
         self.meshes: tuple[VisualMesh, ...] = meshes
         # what posing needs of each mesh: its joint and its placement in that joint's frame
         # (oMg = oMi[joint] · placement, as pin.updateGeometryPlacements).  The geometry model is
@@ -136,7 +134,7 @@ class RobotVisual:
         release_freed_memory()
         self._data = self.model.createData()
         self._lock = threading.Lock()  # the dashboard and a recorder may pose from two threads
-        nominal = robot_source(model_name).nominal
+        nominal = rm.nominal
         self.joint_names: tuple[str, ...] = tuple(
             self.model.names[j] for j in range(2, self.model.njoints)
         )  # 0 is the universe, 1 the floating base
@@ -181,16 +179,3 @@ class RobotVisual:
         T = T @ self._placements  # oMg = oMi[joint] · placement
         xyzw = Rotation.from_matrix(T[:, :3, :3]).as_quat()
         return MeshPoses(position=T[:, :3, 3].copy(), wxyz=np.roll(xyzw, 1, axis=1))
-
-
-_VISUALS: dict[str, RobotVisual] = {}
-_VISUALS_LOCK = threading.Lock()
-
-
-def robot_visual(model_name: str) -> RobotVisual:
-    """The visual model of ``model_name``, built once per process (meshes load in about 1 s)."""
-    with _VISUALS_LOCK:
-        visual = _VISUALS.get(model_name)
-        if visual is None:
-            visual = _VISUALS[model_name] = RobotVisual(model_name)
-        return visual

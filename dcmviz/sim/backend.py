@@ -1,29 +1,20 @@
 """The seam between the walker (§III, backend-independent) and a simulated robot.
 
-A backend is anything that measures a :class:`~dcmviz.state.MeasuredState` each control tick and
-realises a :class:`~dcmviz.state.WalkerCommand`: the point mass (:mod:`dcmviz.sim.lip`) and the
+A backend is anything that measures a :class:`~dcmviz.walker.state.MeasuredState` each control tick and
+realises a :class:`~dcmviz.walker.state.WalkerCommand`: the point mass (:mod:`dcmviz.sim.lip`) and the
 MuJoCo humanoid (:mod:`dcmviz.sim.mujoco_sim`).  The session talks to it only through this
 protocol.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
 from dcmviz.robots import RobotSpec
-from dcmviz.state import MeasuredState, WalkerCommand
-
-
-@dataclass(frozen=True)
-class RobotPose:
-    """Where a humanoid's links are: floating base and joint angles (for drawing and recording)."""
-
-    base_position: np.ndarray  # (3,) m, world
-    base_wxyz: np.ndarray  # (4,) unit quaternion (w, x, y, z)
-    joints: dict[str, float]  # URDF joint name → angle (rad), locked joints included
+from dcmviz.robots.pose import RobotPose
+from dcmviz.walker.state import MeasuredState, WalkerCommand
 
 
 class Backend(Protocol):

@@ -10,12 +10,12 @@ logs, every ``log_dt_s`` of simulated time on the ``sim_time`` timeline:
   strips (re-logged when a touchdown commits a footstep), footsteps as boxes (planned = nominal,
   adjusted = the target being adjusted right now, realised = where each foot landed), the applied
   external force and the estimated force as arrows at the CoM;
-* ``world/terrain``: the preset's stairs and boxes (:mod:`dcmviz.terrain`) as solid boxes;
-* ``world/robot/<model>/<mesh>``: the humanoid's visual meshes (:mod:`dcmviz.visual`, the
+* ``world/terrain``: the preset's stairs and boxes (:mod:`dcmviz.gait.terrain`) as solid boxes;
+* ``world/robot/<model>/<mesh>``: the humanoid's visual meshes (:mod:`dcmviz.robots.visual`, the
   model the dashboard draws) as ``rr.Mesh3D``, logged once when the first humanoid tick arrives,
   each posed per sample from ``tick.pose`` by a ``Transform3D``; for the point mass two legs.
 
-The recorder reads the session's :class:`~dcmviz.tick.Tick` records and, at :meth:`Recorder.start`,
+The recorder reads the session's :class:`~dcmviz.session.tick.Tick` records and, at :meth:`Recorder.start`,
 its robot spec and nominal plan; nothing else of the session.
 
 Each recorder owns a dedicated :class:`rerun.RecordingStream`, so several recordings can coexist.
@@ -38,10 +38,13 @@ from typing import Any
 import numpy as np
 import rerun as rr
 
+from dcmviz.gait.terrain import terrain_of
+from dcmviz.robots import Robot
+from dcmviz.robots.visual import RobotVisual
 from dcmviz.session import Session
-from dcmviz.terrain import terrain_of
-from dcmviz.tick import Tick
-from dcmviz.visual import RobotVisual, robot_visual
+from dcmviz.session.signals import FOOTSTEP_COLORS, SIDE_COLORS, color
+from dcmviz.session.signals import TERRAIN_COLOR as TERRAIN_RGB
+from dcmviz.session.tick import Tick
 
 LOG_DT_S = 0.01  # sim seconds between logged samples
 TRAIL_SAMPLES = 200  # 3-D trails show the last 2 s
@@ -50,20 +53,13 @@ FLUSH_SAMPLES = 200  # samples buffered before they are sent as columns
 FORCE_SCALE_M_PER_N = 0.005  # arrow length per newton
 
 SERIES = ("com", "xi", "xi_ref", "xi_adj", "v_ref", "v_cmd")
-SERIES_COLORS = {
-    "com": (120, 120, 120),
-    "xi": (0, 150, 255),
-    "xi_ref": (40, 40, 40),
-    "xi_adj": (0, 190, 90),
-    "v_ref": (255, 160, 0),
-    "v_cmd": (230, 50, 50),
-}
-TERRAIN_COLOR = (168, 158, 140, 255)
+SERIES_COLORS = {key: color(key) for key in SERIES}  # the dashboard's (session.signals)
+TERRAIN_COLOR = (*TERRAIN_RGB, 255)
 FOOT_COLORS = {
-    "planned": (170, 170, 170, 120),
-    "plan": (90, 140, 255, 150),
-    "adjusted": (0, 200, 90, 200),
-    "realised": (230, 120, 0, 220),
+    "planned": (*FOOTSTEP_COLORS["planned"], 120),
+    "plan": (*SIDE_COLORS["left"], 150),
+    "adjusted": (*FOOTSTEP_COLORS["adjusted"], 200),
+    "realised": (*FOOTSTEP_COLORS["realised"], 220),
 }
 
 
@@ -184,7 +180,7 @@ class Recorder:
         rec.log(
             "world/forces",
             rr.Arrows3D.from_fields(
-                colors=[(230, 50, 50), (160, 60, 220)],
+                colors=[color("f_ext"), color("f_hat")],
                 radii=[0.01, 0.008],
                 labels=["F_ext", "F̂"],
             ),
@@ -324,9 +320,10 @@ class Recorder:
         if len(buf["t"]) >= FLUSH_SAMPLES:
             self._flush()
 
-    def _show_robot(self, model: str | None, t: float) -> None:
-        """Log the meshes of humanoid ``model`` (None: no humanoid) once; clear the previous one."""
+    def _show_robot(self, robot: Robot | None, t: float) -> None:
+        """Log the meshes of humanoid ``robot`` (None: no humanoid) once; clear the previous one."""
         current = None if self._visual is None else self._visual.model_name
+        model = None if robot is None else robot.name
         if model == current:
             return
         self._flush()  # buffered poses belong to the robot shown so far
@@ -334,7 +331,7 @@ class Recorder:
         rec.set_time("sim_time", duration=t)
         if current is not None:
             rec.log(f"world/robot/{current}", rr.Clear(recursive=True))
-        self._visual = None if model is None else robot_visual(model)
+        self._visual = None if robot is None else robot.visual
         if self._visual is None or not self.meshes:
             return
         for mesh in self._visual.meshes:

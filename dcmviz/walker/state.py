@@ -18,21 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-SIDES = ("left", "right")
-OTHER = {"left": "right", "right": "left"}
-SIDE_SIGN = {"left": 1.0, "right": -1.0}
-
-
-@dataclass(frozen=True)
-class Footstep:
-    """A sole placement: position of the sole frame origin (m, world) and yaw (rad)."""
-
-    side: str
-    position: np.ndarray
-    yaw: float = 0.0
-
-    def moved(self, position: np.ndarray) -> Footstep:
-        return Footstep(self.side, np.asarray(position, dtype=float), self.yaw)
+from dcmviz.gait.plan import GaitPlan
+from dcmviz.gait.walk import StepRecord
 
 
 @dataclass(frozen=True)
@@ -98,3 +85,17 @@ class WalkerCommand:
     phase: int = 0  # current transition phase index (0-based)
     step_index: int = 0  # index of the step being taken (0 = first step), -1 while standing
     done: bool = False  # the plan ended and the robot stands
+
+
+@dataclass(frozen=True)
+class WalkerStatus:
+    """What the walker publishes after a tick: the plan walked and the recovery's footholds."""
+
+    plan: GaitPlan  # walked now (committed adjustments; continuous: the receding horizon)
+    plan_version: int  # changes whenever the walked plan does (reset, touchdown, re-timing)
+    nominal_plan: GaitPlan  # before any adjustment (continuous: as of the last replanning)
+    adjusted: tuple[int, np.ndarray] | None  # footstep being adjusted now and where it lands
+    following: tuple[int, np.ndarray] | None  # the footstep after it and where it lands
+    records: tuple[StepRecord, ...]  # footsteps landed, in order
+    steps_completed: int
+    next_step_index: int  # index into plan.steps of the first footstep not yet landed

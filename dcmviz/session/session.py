@@ -2,7 +2,7 @@
 
 The headless runner, the sweeps and the dashboard are thin shells over this object: they call
 :meth:`Session.step`, post commands (:meth:`Session.push`, :meth:`Session.set_config`) and read
-the per-tick record :meth:`Session.tick` (a frozen :class:`~dcmviz.tick.Tick`), or subscribe to
+the per-tick record :meth:`Session.tick` (a frozen :class:`~dcmviz.session.tick.Tick`), or subscribe to
 it (:meth:`Session.subscribe`).  Nothing outside reaches into the walker or the backend.
 
 It is not thread-safe by itself: one thread (the simulation loop) calls :meth:`Session.step`;
@@ -18,14 +18,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dcmviz.backend import Backend
 from dcmviz.config import Config, Push
 from dcmviz.gait import GaitPlan
-from dcmviz.robots import RobotSpec, get_spec
-from dcmviz.state import MeasuredState, WalkerCommand
-from dcmviz.terrain import terrain_of
-from dcmviz.tick import AppliedPush, Tick
-from dcmviz.walker import Walker
+from dcmviz.gait.terrain import Terrain, terrain_of
+from dcmviz.robots import Robot, RobotSpec, load_robot
+from dcmviz.session.tick import AppliedPush, Tick
+from dcmviz.sim.backend import Backend
+from dcmviz.walker import MeasuredState, Walker, WalkerCommand
 
 Subscriber = Callable[[Tick], None]
 
@@ -35,21 +34,25 @@ PUSHES_KEPT = 256  # pushes remembered (an endless walk pushed every few seconds
 HISTORY_KEYS = ("t", "xi", "xi_ref", "xi_adj", "v_cmd", "v_ref", "com", "f_ext", "f_hat")
 
 
-def make_backend(config: Config, backend: str | None = None) -> Backend:
-    """The point-mass or MuJoCo backend for a preset (``backend`` overrides sim.backend).
+def make_backend(
+    config: Config, robot: Robot, backend: str | None = None, terrain: Terrain | None = None
+) -> Backend:
+    """The point-mass or MuJoCo backend for a preset's ``robot`` (``backend`` overrides
+    sim.backend) on its ``terrain`` (default: the preset's).
 
     Both stand at the robot's own CoM height: the controller's b may differ from it, and the
     point mass shows what that does just as the humanoid would.
     """
     name = backend or config.sim.backend
+    terrain = terrain if terrain is not None else terrain_of(config.terrain)
     if name == "lip":
         from dcmviz.sim.lip import LipBackend
 
-        return LipBackend(config.robot.model, terrain=terrain_of(config.terrain))
+        return LipBackend(robot, terrain=terrain)
     if name == "mujoco":
         from dcmviz.sim.mujoco_sim import MujocoBackend
 
-        return MujocoBackend(config.robot.model, terrain=terrain_of(config.terrain))
+        return MujocoBackend(robot, terrain=terrain)
     raise ValueError(f"sim.backend = {name!r}: allowed 'mujoco' or 'lip'")
 
 
@@ -95,8 +98,7 @@ class Session:
                        if getattr(config, k) != getattr(old, k)]  # fmt: skip
             if not changed:
                 self.config = config
-                self.walker.config = config
-                self.walker.set_control(config.control, self.last_state)
+                self.walker.set_config(config, self.last_state)
                 return "gains changed (walk continues)" if config.control != old.control else ""
         else:
             changed = ["backend"] if old is not None else []
@@ -109,30 +111,34 @@ class Session:
         self.config = config
         self.backend_name = name
         if rebuild:
-            self.backend = make_backend(config, name)
+            self.robot = load_robot(config.robot.model)  # built once per process and file
+            self.terrain = terrain_of(config.terrain)
+            self.backend = make_backend(config, self.robot, name, self.terrain)
         self.reset()
         return f"restarted: {', '.join(changed)} changed" if changed else "started"
 
     @property
     def plan(self) -> GaitPlan:
         """The walker's current plan (with committed adjustments): the plan walked."""
-        return self.walker.plan
+        return self.walker.status.plan
 
     @property
     def plan_version(self) -> int:
         """Changes whenever the walked plan does (reset, touchdown commit, replanning)."""
-        return self.walker.plan_version
+        return self.walker.status.plan_version
 
     @property
     def nominal_plan(self) -> GaitPlan:
         """The plan the walker started from, before any step adjustment."""
-        return self.walker.nominal_plan
+        return self.walker.status.nominal_plan
 
     def reset(self) -> None:
         state = self.backend.reset()
-        version = self.walker.plan_version if getattr(self, "walker", None) else 0
-        self.walker = Walker(self.config, mass=self.backend.mass, dt=self.backend.control_dt)
-        self.walker.plan_version = version  # versions keep increasing across resets
+        version = self.plan_version if getattr(self, "walker", None) else 0
+        self.walker = Walker(  # plan versions keep increasing across resets
+            self.config, self.robot.spec, mass=self.backend.mass, dt=self.backend.control_dt,
+            terrain=self.terrain, plan_version=version,
+        )  # fmt: skip
         self.walker.reset(state)
         self.last_state: MeasuredState = state
         self.last_command: WalkerCommand | None = None
@@ -146,6 +152,8 @@ class Session:
         }
         self._n = 0
         self._applied: dict[str, np.ndarray] = {}
+        self._records_seen: tuple | None = None
+        self._records_recent: tuple = ()
 
     # -- commands -------------------------------------------------------------------------------
     def push(
@@ -157,7 +165,7 @@ class Session:
         start: float | None = None,
     ) -> Push:
         """Schedule a push (validated like a preset push), starting now unless ``start`` given."""
-        spec = get_spec(self.config.robot.model)
+        spec = self.robot.spec
         if body not in spec.bodies:
             raise ValueError(
                 f"body = {body!r}: unknown for {spec.name}; allowed: {', '.join(spec.bodies)}"
@@ -248,17 +256,17 @@ class Session:
         return self._tick
 
     def _make_tick(self) -> Tick:
-        walker, backend, cmd = self.walker, self.backend, self.last_command
+        status, backend, cmd = self.walker.status, self.backend, self.last_command
         pushes = tuple(
             AppliedPush(body, f.copy(), np.array(backend.body_position(body), float))
             for body, f in self._applied.items()
         )
-        adjusted = walker.adjusted_target
-        plan = walker.plan
+        adjusted = status.adjusted
+        plan = status.plan
         adjusted_step = recovery_step = None
         if adjusted is not None and 0 <= adjusted[0] < len(plan.steps):
             adjusted_step = plan.steps[adjusted[0]].moved(np.array(adjusted[1], float))
-        second = walker.recovery_target
+        second = status.following
         if second is not None and 0 <= second[0] < len(plan.steps):
             nominal = plan.steps[second[0]]
             if float(np.linalg.norm(np.asarray(second[1]) - nominal.position)) > 1e-3:
@@ -266,19 +274,19 @@ class Session:
         return Tick(
             index=self._ticks,
             t=float(cmd.t),
-            robot=self.config.robot.model,
+            robot=self.robot,
             backend=backend.name,
             state=self.last_state,
             command=cmd,
             plan=plan,
-            plan_version=walker.plan_version,
-            nominal_plan=walker.nominal_plan,
+            plan_version=status.plan_version,
+            nominal_plan=status.nominal_plan,
             adjusted_index=-1 if adjusted_step is None else int(adjusted[0]),
             adjusted_step=adjusted_step,
             recovery_step=recovery_step,
-            realised_steps=walker.records[-REALISED_IN_TICK:],
-            steps_completed=walker.steps_completed,
-            next_step_index=walker.next_step_index,
+            realised_steps=self._recent(status.records),
+            steps_completed=status.steps_completed,
+            next_step_index=status.next_step_index,
             pushes=pushes,
             f_ext=sum((p.force for p in pushes), np.zeros(3)),
             f_hat=np.array(cmd.f_hat, float),
@@ -286,6 +294,13 @@ class Session:
             fell=self.metrics.fell,
             done=bool(cmd.done),
         )
+
+    def _recent(self, records: tuple) -> tuple:
+        """The latest REALISED_IN_TICK landed footsteps, one tuple from one landing to the
+        next (a Tick's cost must not grow with the steps walked; readers may compare by id)."""
+        if records is not self._records_seen:
+            self._records_seen, self._records_recent = records, records[-REALISED_IN_TICK:]
+        return self._records_recent
 
     def run(self, duration: float, *, stop_on_fall: bool = True) -> Metrics:
         """Step until ``duration`` s of simulated time have passed (or the robot fell)."""
@@ -327,13 +342,13 @@ class Session:
     # -- summaries ------------------------------------------------------------------------------
     @property
     def steps_completed(self) -> int:
-        return self.walker.steps_completed
+        return self.walker.status.steps_completed
 
     @property
     def step_adjustments(self) -> list[dict[str, float]]:
         return self.walker.step_adjustments
 
     def realised_steps(self) -> list:
-        """The footsteps landed since the reset (:class:`~dcmviz.walker.StepRecord`; a
-        continuous walk keeps its last ``walker.RECORDS_KEPT``)."""
-        return list(self.walker.records)
+        """The footsteps landed since the reset (:class:`~dcmviz.gait.walk.StepRecord`; a
+        continuous walk keeps its last ``gait.walk.RECORDS_KEPT``)."""
+        return list(self.walker.status.records)

@@ -1,6 +1,6 @@
 """Automatic tuning of a preset's gains and timing (Ray Tune + Optuna):
 
-    python -m dcmviz.tune PRESET --objective weakest|area|tracking --trials N [--seed S]
+    python -m dcmviz.sweep.tune PRESET --objective weakest|area|tracking --trials N [--seed S]
         [--sim lip|mujoco] [--out DIR] [--jobs N | --address HOST:PORT] [envelope options]
 
 writes ``OUT/best.toml`` (the best preset; ``dcmviz.config.load_preset`` loads it),
@@ -17,14 +17,13 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from dcmviz.cli import BadInput, Parser, positive_int, positive_seconds
 from dcmviz.config import ConfigError, load_preset
-from dcmviz.sweep.cli import add_envelope_args, add_execution_args, settings_from_args
+from dcmviz.run.args import BadInput, Parser, positive_int, positive_seconds
+from dcmviz.sweep.cli import add_envelope_args, add_execution_args, check_step, settings_from_args
 from dcmviz.sweep.experiments import PRESET_CONTROLLER
-from dcmviz.sweep.search import push_window
 from dcmviz.sweep.tuning import OBJECTIVES, TuneSettings, tune_preset, write_tuning
 
-PROG = "dcmviz.tune"
+PROG = "dcmviz.sweep.tune"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -51,7 +50,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return int(exc.code or 0)
         config = load_preset(args.preset)
         settings = settings_from_args(args, (PRESET_CONTROLLER,))
-        push_window(config, settings.step, settings.phase)  # validates --step
+        check_step(config, settings)
         out = Path(args.out)
         if out.exists() and not out.is_dir():
             raise BadInput(f"--out {args.out!r}: exists and is not a directory")

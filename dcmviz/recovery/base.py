@@ -1,0 +1,115 @@
+"""What every push-recovery strategy (``control.recovery``) answers, and the footstep rules they share.
+
+Each tick the walker asks its strategy for the adjustment of the DCM reference (§III-A): which
+footsteps move where to absorb the DCM error ξ̃ = ξ − ξ_ref, and the change of the reference
+they make, Δξ_adj (eqs. 33–35).  A strategy may also re-time the walk (:meth:`retime`) and bring
+the commanded VRP back into the support its own way (:meth:`shape_vrp`).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+import numpy as np
+
+from dcmviz.gait.plan import GaitPlan
+from dcmviz.gait.terrain import EDGE_MARGIN_M, Terrain
+from dcmviz.gait.walk import Walk
+from dcmviz.robots import RobotSpec, clamp_to_reach
+from dcmviz.robots.feet import Footstep
+
+
+@dataclass(frozen=True)
+class Adjustment:
+    """A strategy's answer for one tick."""
+
+    delta: np.ndarray  # (3,) Δξ_adj, the change of the DCM reference (eqs. 33–35, 49)
+    target: tuple[int, np.ndarray] | None  # footstep k being adjusted and where it will land
+    following: tuple[int, np.ndarray] | None  # the footstep after it, where it will land
+    retarget_swing: bool = False  # the swinging foot heads for ``target`` from now on
+
+
+NO_ADJUSTMENT = Adjustment(np.zeros(3), None, None)
+NO_ADJUSTMENT.delta.flags.writeable = False
+
+
+class RecoveryStrategy(ABC):
+    """A value of ``control.recovery``: one object per walk, which may keep state between ticks."""
+
+    name: str = ""
+
+    def __init__(self, spec: RobotSpec, terrain: Terrain, b: float, dt: float) -> None:
+        self.spec, self.terrain, self.b, self.dt = spec, terrain, float(b), float(dt)
+
+    @abstractmethod
+    def adjust(
+        self, walk: Walk, t: float, local: float, xi_error: np.ndarray, max_adjustment: float
+    ) -> Adjustment:
+        """The adjustment for the DCM error ``xi_error`` at global time ``t`` (``local`` into
+        the walked plan); each footstep moves at most ``max_adjustment`` (m) per axis."""
+
+    def retime(
+        self, walk: Walk, t: float, xi: np.ndarray, shift: np.ndarray, max_adjustment: float
+    ) -> GaitPlan | None:
+        """A re-timed plan to walk from now on, or None to keep the walked one (the default);
+        ``xi`` is the measured DCM, ``shift`` the observer's shift of the references (eq. 48)."""
+        return None
+
+    def shape_vrp(
+        self, v: np.ndarray, support: dict[str, bool], placed: dict[str, Footstep]
+    ) -> np.ndarray:
+        """The commanded VRP as the strategy wants it realised (default: as it is)."""
+        return v
+
+    # -- footholds (shared) -----------------------------------------------------------------
+    def target(
+        self,
+        plan: GaitPlan,
+        k: int,
+        xi_error: np.ndarray,
+        stance: Footstep,
+        max_adjustment: float,
+    ) -> np.ndarray:
+        """Where footstep k lands for the DCM error ``xi_error``: eq. (32), horizontal,
+        reachable from ``stance`` and on its tread."""
+        nominal = plan.steps[k]
+        dv = plan.adjustment_gain(k) * np.asarray(xi_error, dtype=float)
+        dv[2] = 0.0
+        target = clamp_to_reach(
+            self.spec, stance, nominal.moved(nominal.position + dv), nominal.position,
+            max_adjustment,
+        )  # fmt: skip
+        return self.on_tread(nominal, target)
+
+    def tread_box(self, nominal: Footstep) -> tuple[np.ndarray, np.ndarray] | None:
+        """Bounds of Δv_xy that keep footstep ``nominal`` on its tread (see :meth:`on_tread`)."""
+        if self.terrain.flat:
+            return None
+        box = self.terrain.support_under(nominal.position[:2])
+        if box is None:
+            return None
+        p = nominal.position[:2]
+        corners = np.array([box.clamp(p + d, self._tread_margin(box)) for d in
+                            ((-9.0, -9.0), (9.0, 9.0), (-9.0, 9.0), (9.0, -9.0))])  # fmt: skip
+        return corners.min(axis=0) - p, corners.max(axis=0) - p
+
+    def _tread_margin(self, box) -> float:
+        margin = EDGE_MARGIN_M + 0.5 * math.hypot(self.spec.foot_length_m, self.spec.foot_width_m)
+        if box.size[0] < 2 * margin or box.size[1] < 2 * margin:
+            margin = EDGE_MARGIN_M + 0.5 * self.spec.foot_length_m
+        return margin
+
+    def on_tread(self, nominal: Footstep, target: np.ndarray) -> np.ndarray:
+        """On terrain an adjusted footstep stays on its nominal tread, the whole sole at least
+        EDGE_MARGIN_M inside its edges, so it never straddles an edge and its height (the
+        tread's, the z of its VRP waypoints) does not change: ξ_adj stays continuous.  What the
+        tread cannot take goes to the next footstep like any other limit."""
+        if self.terrain.flat:
+            return target
+        box = self.terrain.support_under(nominal.position[:2])
+        if box is None:
+            return target
+        xy = box.clamp(target[:2], self._tread_margin(box))
+        return np.array([xy[0], xy[1], nominal.position[2]])

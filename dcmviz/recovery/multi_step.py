@@ -1,0 +1,164 @@
+"""``multi_step``: the next footsteps share the DCM error through one small QP (:mod:`.qp`), their
+present leverages bounded by what the CoP can still do (the capacity), and a commanded VRP outside
+the support brought in keeping its lateral part first."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dcmviz.dcm import dcm_adjustment
+from dcmviz.gait.plan import GaitPlan
+from dcmviz.gait.walk import Walk
+from dcmviz.recovery import qp
+from dcmviz.recovery.base import NO_ADJUSTMENT, Adjustment, RecoveryStrategy
+from dcmviz.robots.feet import OTHER, SIDES, Footstep
+from dcmviz.robots.geometry import convex_hull, project_to_polygon, sole_corners
+
+MULTI_STEPS = 3  # footsteps sharing the DCM error
+CAPACITY_MARGIN_M = 0.01  # the recovery QP's CoP stays this far inside the soles
+CAPACITY_TIME_CONSTANTS = 1.0  # τ/b: the CoP is credited with removing ε within one b
+LATERAL_PRIORITY = 4.0  # a VRP outside the support keeps its lateral part first (shape_vrp)
+PRIORITY_BLEND_M = 0.03  # ... blended in over this far beyond the outer foot
+
+
+class MultiStep(RecoveryStrategy):
+    """The next MULTI_STEPS modifiable footsteps share ξ̃ (:func:`.qp.solve_full`)."""
+
+    name = "multi_step"
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.last_slack = 0.0  # m, the recovery QP's CoP shortfall at the last tick
+
+    def adjust(
+        self, walk: Walk, t: float, local: float, xi_error: np.ndarray, max_adjustment: float
+    ) -> Adjustment:
+        """Δξ_adj with the next footsteps sharing ξ̃ through one QP, their present leverages
+        bounded by what the CoP can still do (:meth:`capacity`)."""
+        plan = walk.plan
+        preview = plan.preview
+        k = plan.next_modifiable_step(t)
+        if k is None:
+            return NO_ADJUSTMENT
+        solution, candidates = self.solve(walk, plan, t, local, k, xi_error, max_adjustment)
+        self.last_slack = float(np.linalg.norm(solution.slack))
+        dvs = solution.dv
+        delta = np.zeros(3)
+        for j, dv in enumerate(dvs, start=k):
+            delta = delta + dcm_adjustment(preview, local, plan.selection(j), dv)
+        target = plan.steps[k].position + dvs[0]
+        retarget = walk.swing_step == k and candidates[0].fixed is None
+        following = (k + 1, plan.steps[k + 1].position + dvs[1]) if len(dvs) > 1 else None
+        return Adjustment(delta, (k, target), following, retarget)
+
+    def solve(
+        self,
+        walk: Walk,
+        plan: GaitPlan,
+        t: float,
+        local: float,
+        k: int,
+        xi_error: np.ndarray,
+        max_adjustment: float,
+    ) -> tuple[qp.Solution, list[qp.Candidate]]:
+        """The recovery QP for ``plan`` (the walked one or a re-timed candidate) from footstep k."""
+        weights = plan.preview.dcm_weights(local)  # a_j(t) = w(t)·s_j (eqs. 22, 33-35)
+        swing = walk.swing
+        candidates = []
+        for j in range(k, min(k + MULTI_STEPS, len(plan.steps))):
+            fixed = None
+            if j == k and walk.swing_step == k and swing.frozen(t):
+                fixed = swing.target[:2] - plan.steps[k].position[:2]
+            selection = plan.selection(j)
+            candidates.append(
+                qp.Candidate(
+                    plan.steps[j], 1.0 / plan.adjustment_gain(j),
+                    plan.adjustment_instant(j) - t, fixed, self.tread_box(plan.steps[j]),
+                    float(weights @ selection),
+                )
+            )  # fmt: skip
+        solution = qp.solve_full(
+            candidates, plan.stance_for(k), xi_error, self.spec, max_adjustment, self.b,
+            capacity=self.capacity(walk, plan, t, local),
+        )  # fmt: skip
+        return solution, candidates
+
+    def capacity(self, walk: Walk, plan: GaitPlan, t: float, local: float) -> qp.Capacity:
+        """What the CoP can still remove of ε = ξ − ξ_adj (:mod:`.qp`): an offset δ from v_ref
+        held for CAPACITY_TIME_CONSTANTS · b removes (1 − e^{−τ/b}) δ; v_ref + δ stays
+        CAPACITY_MARGIN_M inside the sole of the stance foot (in its axes).  In double support
+        the box moves linearly from the old stance foot's sole to the new one's (start: from
+        both feet's bounding box; stop: to it), so the capacity, and with it the QP's answer,
+        is continuous at every lift-off and touchdown (ξ_adj never jumps)."""
+        placed = walk.placed
+        contact = plan.contact(t)
+        kind = contact.kind
+        if kind == "ss":
+            boxes, s = [self.sole_box([placed[OTHER[contact.swing_side]]])], 0.0
+        else:
+            T = float(plan.preview.durations[contact.phase]) if kind != "stand" else 1.0
+            s = min(max(contact.t_phase / T, 0.0), 1.0) if kind != "stand" else 1.0
+            both = self.sole_box([placed[x] for x in SIDES])
+            k = plan.next_modifiable_step(t)
+            nxt = self.sole_box([plan.stance_for(k)]) if k is not None else both
+            if kind == "ds" and contact.step >= 0:  # after footstep contact.step landed
+                old = self.sole_box([plan.stance_for(contact.step)])
+                boxes = [old, nxt]
+            elif kind == "ds" or kind in ("start_a", "stand"):
+                boxes = [both, both] if kind != "ds" else [both, nxt]
+            elif kind == "start_b":
+                boxes = [both, nxt]
+            else:  # stop: from the last stance foot to both feet
+                last = self.sole_box([plan.stance_for(len(plan.steps) - 1)])
+                boxes = [last, both]
+        lo = (1.0 - s) * boxes[0][0] + s * boxes[-1][0]
+        hi = (1.0 - s) * boxes[0][1] + s * boxes[-1][1]
+        g = 1.0 - math.exp(-CAPACITY_TIME_CONSTANTS)
+        # the nominal VRP: with the observer both v_ref and the soles' image in VRP space move
+        # by the same −b²F̂/m (eqs. 47-49), so the CoP's room is read without that shift
+        v = plan.preview.vrp(local)[:2] if local < plan.duration else plan.preview.waypoints[-1][:2]
+        lo = np.minimum(g * (lo - v), 0.0)
+        hi = np.maximum(g * (hi - v), 0.0)
+        return qp.Capacity(np.eye(2), lo, hi)
+
+    def sole_box(self, feet: list[Footstep]) -> tuple[np.ndarray, np.ndarray]:
+        """World-axes bounding box (lo, hi) of the soles, CAPACITY_MARGIN_M inside."""
+        length = self.spec.foot_length_m - 2 * CAPACITY_MARGIN_M
+        width = self.spec.foot_width_m - 2 * CAPACITY_MARGIN_M
+        corners = np.vstack([sole_corners(f.position, f.yaw, length, width) for f in feet])
+        return corners.min(axis=0), corners.max(axis=0)
+
+    def shape_vrp(
+        self, v: np.ndarray, support: dict[str, bool], placed: dict[str, Footstep]
+    ) -> np.ndarray:
+        """The commanded VRP brought into the support polygon (the soles bearing weight, their
+        hull in double support) by the projection that keeps its lateral part first (metric
+        LATERAL_PRIORITY² on the feet's lateral axis) when it lies laterally beyond both feet:
+        no footstep can take a lateral error towards the stance foot, a forward one the next
+        footsteps can.  A VRP inside, or laterally between the feet, is kept (the backend's
+        support then decides, as for the paper's strategy)."""
+        feet = [placed[s] for s in SIDES if support.get(s)]
+        if not feet:
+            return v
+        yaw = math.atan2(sum(math.sin(f.yaw) for f in feet), sum(math.cos(f.yaw) for f in feet))
+        c, s_ = math.cos(yaw), math.sin(yaw)
+        to_local = np.array([[c, s_], [-s_ * LATERAL_PRIORITY, c * LATERAL_PRIORITY]])
+        corners = np.vstack(
+            [sole_corners(f.position, f.yaw, self.spec.foot_length_m, self.spec.foot_width_m)
+             for f in feet]
+        )  # fmt: skip
+        local_v = to_local @ v[:2]
+        lateral = [float(to_local[1] @ placed[x].position[:2]) for x in SIDES]
+        beyond = max(min(lateral) - local_v[1], local_v[1] - max(lateral), 0.0)
+        if beyond == 0.0:  # between the feet: a step can take it
+            return v
+        polygon = convex_hull(corners @ to_local.T)
+        p, d = project_to_polygon(local_v, polygon)
+        if d == 0.0:
+            return v
+        # blended in over PRIORITY_BLEND_M beyond the outer foot: continuous in v
+        alpha = min(beyond / (LATERAL_PRIORITY * PRIORITY_BLEND_M), 1.0)  # beyond: scaled
+        moved = np.linalg.solve(to_local, np.asarray(p, float)) - v[:2]
+        return np.array([*(v[:2] + alpha * moved), v[2]])

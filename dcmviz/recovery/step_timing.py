@@ -1,0 +1,119 @@
+"""``multi_step_timing``: :mod:`.multi_step` and the phase durations as a recovery variable
+(:mod:`dcmviz.gait.timing`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dcmviz.gait import timing
+from dcmviz.gait.plan import GaitPlan
+from dcmviz.gait.walk import Walk
+from dcmviz.recovery.multi_step import MultiStep
+from dcmviz.robots.feet import OTHER, SIDES
+
+QUIET_SLACK_M = 1e-4  # m: below this shortfall a nominal timing is not questioned
+RETIME_PERIOD_S = 0.03  # s between comparisons of candidate timings
+STEP_COST_WEIGHT = 1e-3  # timing score: Σ ω |Δv|² (m²) against σ² (m²) ...
+TIMING_COST_WEIGHT = 1e-3  # ... and Σ (T − T_nominal)² (s²)
+CAPTURE_WEIGHT = 1.0  # timing score: the capture shortfall² (m²) against σ² (m²)
+TIMING_HYSTERESIS = 0.8  # a new target timing must score below this fraction of the kept one
+
+
+class MultiStepTiming(MultiStep):
+    """Every RETIME_PERIOD_S the candidate timings are compared by the recovery QP's CoP
+    shortfall σ (then step size and distance from the nominal timing); every tick the walked
+    plan's durations move towards the best at most ``timing.RATE`` s per s, the swing foot
+    re-timed with them."""
+
+    name = "multi_step_timing"
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._timing_target: np.ndarray | None = None
+        self._retime_tick = 0
+        self._nominal_plan: GaitPlan | None = None  # the plan the target was chosen against
+
+    def retime(
+        self, walk: Walk, t: float, xi: np.ndarray, shift: np.ndarray, max_adjustment: float
+    ) -> GaitPlan | None:
+        plan = walk.plan
+        if walk.nominal_plan is not self._nominal_plan:  # a new walk or a replanned horizon
+            self._nominal_plan = walk.nominal_plan
+            self._timing_target = None
+        local = t - plan.t0
+        if local < 0.0 or local >= plan.duration:
+            return None
+        k = plan.next_modifiable_step(t)
+        if k is None:
+            return None
+        self._retime_tick += 1
+        nominal = walk.nominal_plan.preview.durations  # before any re-timing
+        at_nominal = np.array_equal(plan.preview.durations, nominal)
+        if at_nominal and self.last_slack < QUIET_SLACK_M:  # capturable as planned: keep it
+            self._timing_target = None
+            return None
+        every = max(1, round(RETIME_PERIOD_S / self.dt))
+        if self._retime_tick % every == 1 % every or self._timing_target is None:
+            phases = 1 if walk.continuous else timing.PHASES
+            best, best_score, kept_score = None, math.inf, math.inf
+            candidates = timing.timing_candidates(plan, local, phases)
+            previous = self._timing_target
+            if previous is not None and len(previous) == len(plan.preview.durations):
+                candidates.append(previous)
+            for i, durations in enumerate(candidates):
+                p = timing.retimed(plan, durations)
+                error = xi - (p.preview.dcm(local) + shift)
+                solution, _ = self.solve(walk, p, t, local, k, error, max_adjustment)
+                short = self._capture_shortfall(walk, p, t, k, xi[:2], solution.dv)
+                score = (
+                    float(solution.slack @ solution.slack)
+                    + CAPTURE_WEIGHT * float(short @ short)
+                    + STEP_COST_WEIGHT * solution.step_cost
+                    + TIMING_COST_WEIGHT * float(np.sum((durations - nominal) ** 2))
+                )
+                if previous is not None and i == len(candidates) - 1:
+                    kept_score = score
+                elif score < best_score - 1e-12:
+                    best, best_score = durations, score
+            # hysteresis: the target changes only for a clearly better timing (no chattering)
+            if best_score < TIMING_HYSTERESIS * kept_score - 1e-9:
+                self._timing_target = best
+        current = plan.preview.durations
+        if self._timing_target is None or len(self._timing_target) != len(current):
+            return None
+        new = timing.towards(current, self._timing_target, timing.RATE * self.dt)
+        phase = int(plan.preview.phase_at(local)[0])
+        new[:phase] = current[:phase]  # phases already over stay as walked
+        if np.allclose(new, current, rtol=0.0, atol=1e-12):
+            return None
+        return timing.retimed(plan, new)
+
+    def _capture_shortfall(
+        self, walk: Walk, plan: GaitPlan, t: float, k: int, xi: np.ndarray, dvs: list[np.ndarray]
+    ) -> np.ndarray:
+        """How far from capturable ``plan``'s timing leaves ξ (timing.capture_shortfall): the
+        supports from now until footstep k+1's foot takes the weight (the end of the double
+        support after it lands; the stance sole, then both soles, …, with footsteps k, k+1 where
+        the QP puts them), the region being footstep k+1's sole: the foot after it cannot cross
+        to the side it stands on.  Without a footstep k+1: footstep k's sole at its touchdown."""
+        feet = {s: walk.placed[s] for s in SIDES}
+        landed = [plan.steps[j].moved(plan.steps[j].position + dvs[j - k])
+                  for j in range(k, min(k + 2, len(plan.steps)))]  # fmt: skip
+        segments = []
+        now = t
+        for j, step in enumerate(landed, start=k):
+            t_lift, t_touch = plan.swing_window(j)
+            if now < t_lift:  # double support before the swing: both feet
+                segments.append((t_lift - now, *self.sole_box([feet[x] for x in SIDES])))
+                now = t_lift
+            stance = feet[OTHER[step.side]]
+            segments.append((max(t_touch - now, 0.0), *self.sole_box([stance])))
+            now = max(now, t_touch)
+            feet[step.side] = step
+        if len(landed) == 2 and k + 2 < len(plan.steps):
+            t_lift = plan.swing_window(k + 2)[0]
+            segments.append((max(t_lift - now, 0.0), *self.sole_box([feet[x] for x in SIDES])))
+        region = self.sole_box([landed[-1]])
+        return timing.capture_shortfall(xi, segments, region, self.b)

@@ -1,0 +1,120 @@
+"""One robot, built once: :func:`load_robot` turns ``robot.model`` (a built-in name or the path of
+a robot file) into a :class:`Robot` that carries everything any layer reads of it: the robot
+file, the planning facts (:class:`~dcmviz.robots.spec.RobotSpec`), the Pinocchio model and
+standing posture with the derived numbers (:class:`~dcmviz.robots.model.RobotModel`), the MuJoCo
+model (:class:`~dcmviz.robots.mujoco_model.MujocoModel`, built on first use) and the visual model
+(:class:`~dcmviz.robots.visual.RobotVisual`, meshes loaded on first use).
+
+This is the only place a robot is looked up by name; the session loads it and hands it down.
+"""
+
+from __future__ import annotations
+
+import functools
+import threading
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from dcmviz.robots.feet import SIDES
+from dcmviz.robots.file import RobotFileError, parse_robot_file, resolve_robot_path
+from dcmviz.robots.model import RobotModel, build_from_file
+from dcmviz.robots.spec import RobotSpec
+
+if TYPE_CHECKING:
+    from dcmviz.robots.mujoco_model import MujocoModel
+    from dcmviz.robots.visual import RobotVisual
+
+__all__ = ["Robot", "load_robot"]
+
+
+class Robot:
+    """A humanoid: its file, planning facts, Pinocchio model, MuJoCo model and visual model.
+
+    Joint order: ``joint_names`` (the actuated joints) is Pinocchio's order; the MuJoCo model's
+    motors follow it.
+    """
+
+    def __init__(self, name: str, rm: RobotModel) -> None:
+        import pinocchio as pin
+
+        self.name = name  # robot.model as given: a built-in name or a robot file's path
+        self.model: RobotModel = rm
+        self.file = rm.file
+        self.spec: RobotSpec = rm.spec
+        self.locked_joints: dict[str, float] = dict(rm.locked)  # joint -> locked angle, rad
+        # whole-body QP gains the robot file sets ([controller]); the rest are Gains' defaults
+        self.controller: dict[str, float | bool] = dict(rm.file.controller)
+        self.pin_model = pm = pin.Model(rm.pin_model)  # own copy (armature set)
+        self.joint_names: tuple[str, ...] = rm.joint_names
+        self.nq, self.nv, self.nu = pm.nq, pm.nv, pm.nv - 6
+        self.sole_frames = {s: pm.getFrameId(f"{s}_sole_link") for s in SIDES}
+        self.torque_limit = np.array(pm.effortLimit[6:], dtype=float)
+        self.armature = rm.armature
+        self.damping = rm.damping
+        self.foot_length, self.foot_width = rm.spec.foot_length_m, rm.spec.foot_width_m
+        # nominal standing posture (solved by the loader): soles on z = 0
+        self.q_nominal = q = rm.q_nominal.copy()
+        data = pm.createData()
+        pin.framesForwardKinematics(pm, data, q)
+        self.mass = float(pin.computeTotalMass(pm))
+        self.com_height = float(pin.centerOfMass(pm, data, q)[2])
+        self.foot_spacing = float(
+            data.oMf[self.sole_frames["left"]].translation[1]
+            - data.oMf[self.sole_frames["right"]].translation[1]
+        )
+        self._lock = threading.Lock()
+        self._mujoco: MujocoModel | None = None
+        self._visual: RobotVisual | None = None
+        self._levers: dict[str, float] = {}
+
+    def __repr__(self) -> str:
+        return f"Robot({self.name!r}, {self.mass:.2f} kg)"
+
+    @property
+    def mujoco(self) -> MujocoModel:
+        """The MuJoCo model (robot, floor, sole boxes, motors), built on first use."""
+        with self._lock:
+            if self._mujoco is None:
+                from dcmviz.robots.mujoco_model import MujocoModel
+
+                self._mujoco = MujocoModel(self.model)
+            return self._mujoco
+
+    @property
+    def visual(self) -> RobotVisual:
+        """The visual meshes and the kinematics that place them, loaded on first use (≈ 1 s)."""
+        with self._lock:
+            if self._visual is None:
+                from dcmviz.robots.visual import RobotVisual
+
+                self._visual = RobotVisual(self.name, self.model)
+            return self._visual
+
+    def push_lever_m(self, body: str) -> float:
+        """Height (m) above the robot's CoM of the CoM of the body a push acts on (a push target
+        of ``spec.bodies`` or a link name), standing in the nominal posture: a push there also
+        brings a moment of this lever times its horizontal force about the CoM."""
+        if body not in self._levers:
+            link = self.spec.bodies.get(body, body)
+            self._levers[body] = self.mujoco.body_above_com_m(link, self.q_nominal)
+        return self._levers[body]
+
+
+def load_robot(model: str) -> Robot:
+    """The robot of ``robot.model`` (a built-in name or a robot file's path), built once per
+    process and file version.  :class:`~dcmviz.robots.file.RobotFileError` (a ValueError) naming
+    ``robot.model``, the file's key and what was expected otherwise."""
+    try:
+        path = resolve_robot_path(model)
+        return _load(model, path, Path(path).stat().st_mtime_ns)
+    except RobotFileError as err:
+        if str(err).startswith("robot.model"):
+            raise
+        raise RobotFileError(f"robot.model = {model!r}: {err}") from None
+
+
+@functools.lru_cache(maxsize=16)
+def _load(model: str, path: str, mtime_ns: int) -> Robot:
+    return Robot(model, build_from_file(parse_robot_file(path)))

@@ -1,0 +1,212 @@
+"""The per-tick loop of §III, the same for every backend.
+
+Each tick the walker reads a :class:`~dcmviz.walker.state.MeasuredState` and answers a
+:class:`~dcmviz.walker.state.WalkerCommand`:
+
+1. clock the walk through its plan (:meth:`dcmviz.gait.walk.Walk.clock`): footsteps are
+   committed where the feet land, continuous mode replans at each touchdown;
+2. measured DCM ξ = x + b ẋ (eq. 1);
+3. disturbance observer F̂ (eqs. 45, 46) and the reference shift −b²/m F̂ (eqs. 47–49);
+4. push recovery by the strategy of ``control.recovery`` (:mod:`dcmviz.recovery`): which
+   footsteps move where, and the adapted DCM reference ξ_adj = ξ_ref + Δξ_adj (eqs. 27–35);
+5. desired VRP v = v_ref + (1 + k_ξ b)(ξ − ξ_adj) (eq. 41; eq. 24 without adjustment) and the CoM
+   force F = m/b² (x − v) (eq. 4); the feet must push with F + m g e_z − F̂;
+6. foot targets: stance feet where they stand, the swing foot on a C² path re-targeted to the
+   adjusted footstep.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dcmviz import GRAVITY
+from dcmviz.config import Config, ControlSection
+from dcmviz.dcm import DisturbanceObserver, com_force, moment_shift, reference_shift, vrp_tracking
+from dcmviz.gait import GaitPlan, Planner
+from dcmviz.gait.terrain import Terrain, terrain_of
+from dcmviz.gait.walk import Walk
+from dcmviz.recovery import NO_ADJUSTMENT, Adjustment, RecoveryStrategy, make_strategy
+from dcmviz.robots import SIDES, RobotSpec
+from dcmviz.walker.state import FootTarget, MeasuredState, WalkerCommand, WalkerStatus
+
+E_Z = np.array([0.0, 0.0, 1.0])
+
+
+class Walker:
+    """Backend-independent DCM walking controller (§III) for one preset and one robot."""
+
+    def __init__(
+        self,
+        config: Config,
+        spec: RobotSpec,
+        *,
+        mass: float,
+        dt: float,
+        terrain: Terrain | None = None,
+        plan_version: int = 0,
+    ) -> None:
+        """``terrain``: the preset's (default: built from ``config.terrain``); ``plan_version``:
+        where the count of plans starts (a session's walks keep counting)."""
+        self.config = config
+        self.control: ControlSection = config.control  # gains: may change while walking
+        self.spec = spec
+        self.terrain = terrain if terrain is not None else terrain_of(config.terrain)
+        self.planner = Planner(config.gait, config.dcm, spec, self.terrain)
+        self.mass = float(mass)
+        self._weight = self.mass * GRAVITY * E_Z  # m g e_z (N), once instead of twice a tick
+        self.dt = float(dt)
+        self.b = config.dcm.b
+        self.observer = DisturbanceObserver(self.mass, config.control.k_f)
+        self.walk: Walk | None = None
+        self._first_version = plan_version
+        self._adjustment: Adjustment = NO_ADJUSTMENT
+        self._status: WalkerStatus | None = None
+
+    def set_config(self, config: Config, state: MeasuredState) -> None:
+        """Adopt a preset that differs from the walked one in its ``[control]`` section only,
+        from the next tick on, without restarting the walk.
+
+        k_ξ, step adjustment on/off and its limit act on the next command; k_F changes the
+        observer's rate; an observer switched on starts from the present momentum (eq. 43), so
+        F̂ starts at zero instead of jumping; another ``control.recovery`` takes over with a
+        fresh state from the next tick.
+        """
+        control = config.control
+        if control.observer and not self.control.observer:
+            self.observer.reset(state.com_velocity)
+        self.observer.k_f = float(control.k_f)
+        if control.recovery != self.control.recovery:
+            self.strategy = self._strategy(control)
+        self.config = config
+        self.control = control
+
+    def _strategy(self, control: ControlSection) -> RecoveryStrategy:
+        return make_strategy(control.recovery, self.spec, self.terrain, self.b, self.dt)
+
+    # -- lifecycle ------------------------------------------------------------------------------
+    def reset(self, state: MeasuredState) -> GaitPlan:
+        """Start standing where the backend's feet are; returns the nominal plan."""
+        version = self.walk.plan_version if self.walk is not None else self._first_version
+        self.walk = Walk(
+            self.planner, state.feet, state.feet_yaw, t0=state.t, com=state.com,
+            plan_version=version,
+        )  # fmt: skip
+        self.strategy = self._strategy(self.control)
+        self._adjustment = NO_ADJUSTMENT
+        self._last_contact_force = self.mass * GRAVITY * E_Z
+        self.observer.reset(state.com_velocity)
+        self._status = None
+        return self.walk.plan
+
+    # -- one tick -------------------------------------------------------------------------------
+    def step(self, state: MeasuredState) -> WalkerCommand:
+        if self.walk is None:
+            self.reset(state)
+        walk = self.walk
+        t = state.t
+        cfg = self.control
+        m, b = self.mass, self.b
+        self._status = None
+
+        contact, touched = walk.clock(t, state.feet, state.feet_yaw)
+
+        # observer, eqs. (45), (46); the known force is the contact force plus gravity
+        known = state.applied_contact_force
+        if known is None:
+            known = self._last_contact_force
+        if cfg.observer:
+            f_hat = self.observer.update(state.com_velocity, known - self._weight, self.dt)
+        else:
+            f_hat = np.zeros(3)
+        shift = reference_shift(f_hat, m, b) if cfg.observer else np.zeros(3)
+        if cfg.observer and state.external_moment is not None:
+            shift = shift + moment_shift(state.external_moment, m)
+        if cfg.step_adjustment and not touched:  # a strategy may re-time the walk first
+            plan = self.strategy.retime(walk, t, state.dcm(b), shift, cfg.max_step_adjustment)
+            if plan is not None:
+                walk.retime(t, plan)
+                contact = plan.contact(t)
+
+        preview = walk.plan.preview
+        local = t - walk.plan.t0
+        xi_ref = preview.dcm(local) + shift  # eq. (48)
+        v_ref = preview.vrp(local) + shift  # eq. (47)
+        xi = state.dcm(b)
+
+        if local >= preview.duration:  # the plan has ended: stand on its final VRP (D3)
+            xi_ref = v_ref = preview.waypoints[-1] + shift
+        if cfg.step_adjustment:  # push recovery (§III-A)
+            adjustment = self.strategy.adjust(walk, t, local, xi - xi_ref, cfg.max_step_adjustment)
+            if adjustment.retarget_swing:
+                walk.retarget_swing(t, adjustment.target[1])
+            xi_adj = xi_ref + adjustment.delta
+        else:
+            adjustment, xi_adj = NO_ADJUSTMENT, xi_ref
+        self._adjustment = adjustment
+
+        v_cmd = vrp_tracking(v_ref, xi, xi_adj, cfg.k_xi, b)  # eq. (41) (eq. 24 if ξ_adj = ξ_ref)
+        if cfg.step_adjustment:
+            v_cmd = self.strategy.shape_vrp(v_cmd, contact.support, walk.placed)
+        force = com_force(state.com, v_cmd, m, b)  # eq. (4)
+        contact_force = force + self._weight - f_hat
+        self._last_contact_force = contact_force
+
+        feet = {}
+        for side in SIDES:
+            if side == contact.swing_side and walk.swing is not None:
+                p, v, a, yaw, yaw_rate = walk.swing.sample(t)
+                feet[side] = FootTarget(p, v, a, yaw, yaw_rate)
+            else:
+                placed = walk.placed[side]
+                feet[side] = FootTarget(placed.position, yaw=placed.yaw)
+
+        return WalkerCommand(
+            t=t,
+            support=contact.support,
+            feet=feet,
+            swing_side=contact.swing_side,
+            com_force=force,
+            contact_force=contact_force,
+            xi=xi,
+            xi_ref=xi_ref,
+            xi_adj=xi_adj,
+            v_ref=v_ref,
+            v_cmd=v_cmd,
+            f_hat=f_hat,
+            v_cmd_rate=preview.vrp_velocity(local) if local < preview.duration else np.zeros(3),
+            phase=contact.phase,
+            step_index=walk.steps_completed,
+            done=walk.done(t),
+        )
+
+    # -- what the walker publishes --------------------------------------------------------------
+    @property
+    def status(self) -> WalkerStatus:
+        """The walk after the last tick, frozen (built once per tick, on request)."""
+        if self._status is None:
+            walk, adjustment = self.walk, self._adjustment
+            self._status = WalkerStatus(
+                plan=walk.plan,
+                plan_version=walk.plan_version,
+                nominal_plan=walk.nominal_plan,
+                adjusted=adjustment.target,
+                following=adjustment.following,
+                records=walk.records,
+                steps_completed=walk.steps_completed,
+                next_step_index=walk.next_step_index,
+            )
+        return self._status
+
+    @property
+    def plan(self) -> GaitPlan:
+        """The plan walked now (with committed adjustments; continuous: the horizon)."""
+        return self.walk.plan
+
+    @property
+    def steps_completed(self) -> int:
+        return self.walk.steps_completed
+
+    @property
+    def step_adjustments(self) -> list[dict[str, float]]:
+        """Committed footsteps that landed away from the nominal plan: {t, step, dx, dy} (m)."""
+        return self.walk.step_adjustments
