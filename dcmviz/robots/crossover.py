@@ -175,7 +175,9 @@ def touchdown_problem(rm: RobotModel, stance: str, x: float, lateral: float) -> 
         rotation = data.oMf[frames[s]].rotation
         yaw = math.atan2(rotation[1, 0], rotation[0, 0])
         corners.append(
-            sole_corners(data.oMf[frames[s]].translation, yaw, spec.foot_length_m, spec.foot_width_m)
+            sole_corners(
+                data.oMf[frames[s]].translation, yaw, spec.foot_length_m, spec.foot_width_m
+            )
         )
     gap = float(rectangle_gap(corners[0][None], corners[1][None])[0])
     if gap < SOLE_GAP_M:

@@ -24,6 +24,7 @@ from dcmviz.robots.model import RobotModel, build_from_file
 from dcmviz.robots.spec import RobotSpec
 
 if TYPE_CHECKING:
+    from dcmviz.robots.crossover import CrossoverRegion
     from dcmviz.robots.mujoco_model import MujocoModel
     from dcmviz.robots.visual import RobotVisual
 
@@ -79,6 +80,7 @@ class Robot:
         self._lock = threading.Lock()
         self._mujoco: MujocoModel | None = None
         self._visual: RobotVisual | None = None
+        self._crossover: CrossoverRegion | None = None
         self._levers: dict[str, float] = {}
 
     def __repr__(self) -> str:
@@ -103,6 +105,17 @@ class Robot:
 
                 self._visual = RobotVisual(self.name, self.model)
             return self._visual
+
+    @property
+    def crossover(self) -> CrossoverRegion:
+        """Where the swinging foot can land across the stance foot (:mod:`.crossover`), derived
+        from the legs' kinematics on first use (about a second)."""
+        with self._lock:
+            if self._crossover is None:
+                from dcmviz.robots.crossover import derive_region
+
+                self._crossover = derive_region(self.model)
+            return self._crossover
 
     def push_lever_m(self, body: str) -> float:
         """Height (m) above the robot's CoM of the CoM of the body a push acts on (a push target

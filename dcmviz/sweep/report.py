@@ -147,7 +147,7 @@ def plot_polar(result: dict[str, Any], path: Path) -> None:
     ax = fig.add_subplot(projection="polar")
     styles = {
         "tracking": "o-", "step_adjustment": "s-", "step_adjustment+observer": "^--",
-        "next_step": "s-", "multi_step": "d-", "multi_step_timing": "^-",
+        "next_step": "s-", "multi_step": "d-", "multi_step_timing": "^-", "crossover": "*-",
     }  # fmt: skip
     for name in result["settings"]["controllers"]:
         rows = sorted(
