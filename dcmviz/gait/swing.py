@@ -103,6 +103,7 @@ def _top_over(
 
 SOLE_CLEARANCE_M = 0.03  # a swing sole passes the stance sole at least this far from it
 DETOUR_SAMPLES = 24  # points of a path checked against the stance sole
+MAX_DETOUR_M = 0.3  # the farthest a swing goes round the stance sole
 
 
 def _bump(s: float) -> tuple[float, float, float]:
@@ -130,9 +131,10 @@ def detour(
     coeffs: np.ndarray, T: float, stance: Footstep, sole: tuple[float, float]
 ) -> tuple[float, float]:
     """The horizontal detour d n (m) that keeps a swing sole on the quintic ``coeffs`` (over
-    [0, T]) SOLE_CLEARANCE_M clear of the ``stance`` sole: none if the quintic does; else around
-    the stance sole's toe or heel (n = ± its x axis), whichever side the path's closest approach
-    already lies on, the smallest d (1 cm steps) that clears it."""
+    [0, T]) SOLE_CLEARANCE_M clear of the ``stance`` sole: none if the quintic does; else round
+    its toe or heel or out to one side (n = ± its x or y axis), the smallest d (1 cm steps, at
+    most MAX_DETOUR_M) that clears it, or no closer than the path's ends are (a target still
+    moving across)."""
     if sole[0] <= 0.0:
         return 0.0, 0.0
     # both ends well to one side of the stance sole (every ordinary step): nothing to go around
@@ -149,17 +151,24 @@ def detour(
     powers = np.stack([tau**i for i in range(6)], axis=1)
     path = powers @ coeffs[:, :2]
     gap = _gap_to_sole(path, stance, sole)
-    if gap.min() >= SOLE_CLEARANCE_M:
+    # no closer than the ends themselves are (a target being moved across may still be near it)
+    ends = _gap_to_sole(np.array([[x0, y0], [x1, y1]]), stance, sole)
+    need = min(SOLE_CLEARANCE_M, float(ends.min()))
+    if gap.min() >= need - 1e-9:
         return 0.0, 0.0
-    axis = np.array([math.cos(stance.yaw), math.sin(stance.yaw)])
-    closest = path[int(np.argmin(gap))] - stance.position[:2]
-    sign = 1.0 if float(closest @ axis) >= 0.0 else -1.0
+    c, sn = math.cos(stance.yaw), math.sin(stance.yaw)
     bump = 64 * s**3 * (1 - s) ** 3
-    for d in np.arange(0.01, 1.0, 0.01):
-        moved = path + np.outer(bump, sign * d * axis)
-        if _gap_to_sole(moved, stance, sole).min() >= SOLE_CLEARANCE_M:
-            return float(sign * d * axis[0]), float(sign * d * axis[1])
-    return float(sign * axis[0]), float(sign * axis[1])
+    best, best_gap = (0.0, 0.0), float(gap.min())
+    for d in np.arange(0.01, MAX_DETOUR_M + 1e-9, 0.01):
+        # round the toe or the heel, or out to either side: the first to clear at this size
+        for axis in ((c, sn), (-c, -sn), (-sn, c), (sn, -c)):
+            way = (float(d * axis[0]), float(d * axis[1]))
+            clear = float(_gap_to_sole(path + np.outer(bump, way), stance, sole).min())
+            if clear > best_gap:
+                best, best_gap = way, clear
+        if best_gap >= need - 1e-9:
+            break
+    return best
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,7 @@ from dcmviz.gait.walk import Walk
 from dcmviz.recovery import qp
 from dcmviz.recovery.base import NO_ADJUSTMENT, Adjustment
 from dcmviz.recovery.step_timing import STEP_COST_WEIGHT, MultiStepTiming
+from dcmviz.robots.feet import SIDE_SIGN
 
 BLEND_S = 0.1  # s over which the footholds move between the uncrossed and the crossed answer
 CROSS_RATIO = 0.5  # a crossing is taken when it scores below this fraction of the uncrossed
@@ -74,6 +75,7 @@ class Crossover(MultiStepTiming):
             self._plan_id, self._mode_step = id(walk.nominal_plan), k
             self.mode, self._from, self._blend = "none", "none", 1.0
         frozen = walk.swing_step == k and walk.swing.frozen(t)
+        crossed_now = self._crossed(walk, plan, k)
         answers: dict[str, tuple[qp.Solution, list[qp.Candidate]]] = {}
 
         def answer(mode: str) -> tuple[qp.Solution, list[qp.Candidate]]:
@@ -83,7 +85,7 @@ class Crossover(MultiStepTiming):
                 )
             return answers[mode]
 
-        if not frozen and self.mode == "none" and self._available():
+        if not frozen and not crossed_now and self.mode == "none" and self._available():
             uncrossed = answer("none")[0]
             short = float(np.linalg.norm(uncrossed.slack))
             if short > MIN_SHORTFALL_M:
@@ -111,8 +113,15 @@ class Crossover(MultiStepTiming):
         following = (k + 1, plan.steps[k + 1].position + dvs[1]) if len(dvs) > 1 else None
         return Adjustment(delta, (k, target), following, retarget)
 
-    def retime(self, walk: Walk, t, xi, shift, max_adjustment) -> GaitPlan | None:
-        return super().retime(walk, t, xi, shift, max_adjustment)
+    def _crossed(self, walk: Walk, plan: GaitPlan, k: int) -> bool:
+        """True while the legs stand crossed: footstep k's foot stands across its stance foot
+        (it then uncrosses; a crossing never follows a crossing)."""
+        step = plan.steps[k]
+        stance = plan.stance_for(k)
+        foot = walk.placed[step.side].position[:2] - stance.position[:2]
+        c, s = np.cos(stance.yaw), np.sin(stance.yaw)
+        lateral = SIDE_SIGN[step.side] * (-s * foot[0] + c * foot[1])
+        return bool(lateral < self.spec.min_step_width_m - 1e-6)
 
 
 def _score(solution: qp.Solution) -> float:

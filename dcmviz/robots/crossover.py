@@ -107,6 +107,34 @@ def legs_distance(rm: RobotModel, data, sole_frames: dict[str, int]) -> float:
     )
 
 
+LEG_SAMPLE_SPACING_M = 0.05  # points along each leg's axis at most this far apart (clearance)
+MIN_SEGMENT_M = 0.01  # leg segments shorter than this (joints at one point) are skipped
+
+
+def leg_sample_points(rm: RobotModel, side: str) -> list[tuple[str, np.ndarray]]:
+    """Points along the leg's axis (hip → knee → ankle → sole, every LEG_SAMPLE_SPACING_M at
+    most), each as (joint name, position in that joint's frame) on the segment's first joint:
+    what the whole-body QP keeps apart from the other leg's."""
+    import pinocchio as pin
+
+    model = rm.pin_model
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, rm.q_nominal)
+    joints = [model.getJointId(j) for j in rm.legs[side]]
+    anchors = [data.oMi[j].translation.copy() for j in joints]
+    anchors.append(data.oMf[model.getFrameId(f"{side}_sole_link")].translation.copy())
+    points = []
+    for i, (a, b) in enumerate(zip(anchors[:-1], anchors[1:], strict=True)):
+        length = float(np.linalg.norm(b - a))
+        if length < MIN_SEGMENT_M:
+            continue
+        n = max(1, math.ceil(length / LEG_SAMPLE_SPACING_M))
+        placement = data.oMi[joints[i]]
+        for k in range(n + 1):
+            points.append((rm.legs[side][i], placement.actInv(a + (b - a) * k / n)))
+    return points
+
+
 def touchdown_posture(
     rm: RobotModel, stance: str, x: float, lateral: float, yaw: float = 0.0
 ) -> tuple[np.ndarray, float]:

@@ -49,6 +49,21 @@ class Robot:
         # whole-body QP gains the robot file sets ([controller]); the rest are Gains' defaults
         self.controller: dict[str, float | bool] = dict(rm.file.controller)
         self.pin_model = pm = pin.Model(rm.pin_model)  # own copy (armature set)
+        # points along each leg's axis as frames (added before any data is made from the model):
+        # the whole-body QP keeps the legs apart with them (dcmviz.sim.wbc.legs)
+        from dcmviz.robots.crossover import leg_sample_points
+
+        self.leg_frames: dict[str, tuple[int, ...]] = {}
+        for side in SIDES:
+            ids = []
+            for k, (joint, point) in enumerate(leg_sample_points(rm, side)):
+                jid = pm.getJointId(joint)
+                frame = pin.Frame(
+                    f"{side}_leg_point_{k}", jid, pm.getFrameId(joint, pin.JOINT),
+                    pin.SE3(np.eye(3), point), pin.OP_FRAME,
+                )  # fmt: skip
+                ids.append(pm.addFrame(frame, False))
+            self.leg_frames[side] = tuple(ids)
         self.joint_names: tuple[str, ...] = rm.joint_names
         self.nq, self.nv, self.nu = pm.nq, pm.nv, pm.nv - 6
         self.sole_frames = {s: pm.getFrameId(f"{s}_sole_link") for s in SIDES}
