@@ -26,7 +26,7 @@ from dcmviz.gait.walk import Walk
 from dcmviz.recovery import qp
 from dcmviz.recovery.base import NO_ADJUSTMENT, Adjustment
 from dcmviz.recovery.step_timing import STEP_COST_WEIGHT, MultiStepTiming
-from dcmviz.robots.feet import SIDE_SIGN
+from dcmviz.robots.feet import SIDE_SIGN, Footstep
 
 BLEND_S = 0.1  # s over which the footholds move between the uncrossed and the crossed answer
 CROSS_RATIO = 0.5  # a crossing is taken when it scores below this fraction of the uncrossed
@@ -76,6 +76,10 @@ class Crossover(MultiStepTiming):
             self.mode, self._from, self._blend = "none", "none", 1.0
         frozen = walk.swing_step == k and walk.swing.frozen(t)
         crossed_now = self._crossed(walk, plan, k)
+        swing = walk.swing
+        self._swinging = (
+            None if swing is None else (plan.steps[walk.swing_step].side, swing.sample(t)[0])
+        )
         answers: dict[str, tuple[qp.Solution, list[qp.Candidate]]] = {}
 
         def answer(mode: str) -> tuple[qp.Solution, list[qp.Candidate]]:
@@ -112,6 +116,24 @@ class Crossover(MultiStepTiming):
         retarget = walk.swing_step == k and candidates[0].fixed is None
         following = (k + 1, plan.steps[k + 1].position + dvs[1]) if len(dvs) > 1 else None
         return Adjustment(delta, (k, target), following, retarget)
+
+    def shape_vrp(
+        self, v: np.ndarray, support: dict[str, bool], placed: dict[str, Footstep]
+    ) -> np.ndarray:
+        """As multi_step's while uncrossed; while footstep k crosses, a footstep takes the
+        lateral error, so the commanded VRP is left to the support as the paper's strategy
+        leaves it.  Between the two, blended with the footholds' weight (no jump)."""
+        if self.mode == "none" and self._from == "none":
+            return super().shape_vrp(v, support, placed)
+        w = self._weight()
+        crossed = v if self.mode != "none" else super().shape_vrp(v, support, placed)
+        uncrossed = super().shape_vrp(v, support, placed) if self._from == "none" else v
+        return (1.0 - w) * uncrossed + w * crossed
+
+    def _weight(self) -> float:
+        """The blend's weight of the present choice: a smoothstep of the time since it changed."""
+        u = self._blend
+        return u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
 
     def _crossed(self, walk: Walk, plan: GaitPlan, k: int) -> bool:
         """True while the legs stand crossed: footstep k's foot stands across its stance foot
