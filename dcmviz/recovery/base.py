@@ -39,6 +39,7 @@ class RecoveryStrategy(ABC):
     """A value of ``control.recovery``: one object per walk, which may keep state between ticks."""
 
     name: str = ""
+    crosses_legs: bool = False  # may place a footstep across the stance foot (crossover)
 
     def __init__(self, robot: Robot, terrain: Terrain, b: float, dt: float) -> None:
         self.robot, self.spec = robot, robot.spec

@@ -38,6 +38,7 @@ class Crossover(MultiStepTiming):
     """multi_step_timing with crossed footsteps (module docstring)."""
 
     name = "crossover"
+    crosses_legs = True
 
     def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)

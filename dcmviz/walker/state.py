@@ -85,6 +85,8 @@ class WalkerCommand:
     phase: int = 0  # current transition phase index (0-based)
     step_index: int = 0  # index of the step being taken (0 = first step), -1 while standing
     done: bool = False  # the plan ended and the robot stands
+    legs_may_cross: bool = False  # the recovery may cross the legs: the whole-body QP keeps them
+    # apart (dcmviz.sim.wbc.legs); strategies that keep each leg on its side need no such rows
 
 
 @dataclass(frozen=True)

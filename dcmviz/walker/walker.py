@@ -179,6 +179,7 @@ class Walker:
             phase=contact.phase,
             step_index=walk.steps_completed,
             done=walk.done(t),
+            legs_may_cross=self.strategy.crosses_legs,
         )
 
     # -- what the walker publishes --------------------------------------------------------------

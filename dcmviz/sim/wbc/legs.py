@@ -12,7 +12,10 @@ the two points, projected a horizon T ahead, stays above d_min = 2 r + ``MARGIN_
 n the unit vector from b to a, J the points' linear Jacobians and a their accelerations at
 q̈ = 0 (world axes).  Soft in daqp: a leg that cannot be stopped in time is braked as hard as the
 rest of the QP allows instead of making it infeasible.  Rows are void while the legs are far
-apart (every ordinary step).
+apart, and on every tick of a walk whose recovery keeps each leg on its own side
+(``WalkerCommand.legs_may_cross`` False: all strategies but ``crossover``): there the step widths
+keep the legs apart, and the pairs would cost a tick's FK of every sample point for nothing (the
+legs of Talos walk closer than d_min + ``ACTIVE_M``, so its rows were never void).
 """
 
 from __future__ import annotations
@@ -52,6 +55,9 @@ class LegClearance(Constraint):
     ) -> bool:
         A[:] = 0.0
         lo[:], up[:] = -INF, INF
+        if not cmd.legs_may_cross:  # each leg stays on its side (no crossover): void rows
+            self.last_distance = np.inf
+            return False
         model, data = ctx.model, ctx.data
         left = np.array([pin.updateFramePlacement(model, data, f).translation
                          for f in self.frames["left"]])  # fmt: skip
