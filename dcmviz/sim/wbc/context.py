@@ -93,6 +93,6 @@ class Kinematics:
             drift,
             {},
             np.zeros(3),
-            m,
-            d,
+            model=m,
+            data=d,
         )
