@@ -144,6 +144,20 @@ def rollout(job: Job) -> dict[str, Any]:
     }
 
 
+class _Serial:
+    """``map`` in this process (``--jobs 1``), lazily."""
+
+    def __enter__(self) -> _Serial:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    @staticmethod
+    def map(fn, items):
+        return map(fn, items)
+
+
 def summarise(results: list[dict[str, Any]], levels: list[float]) -> dict[str, Any]:
     """Per row: survived levels, first fall, holes (falls below a survived level)."""
     rows: dict[str, dict[str, Any]] = {}
@@ -242,11 +256,13 @@ def main(argv: list[str] | None = None) -> int:
         flush=True,
     )
     t0 = time.perf_counter()
-    if args.jobs > 1:
-        with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-            results = list(pool.map(rollout, jobs))
-    else:
-        results = [rollout(j) for j in jobs]
+    results = []
+    with ProcessPoolExecutor(max_workers=args.jobs) if args.jobs > 1 else _Serial() as pool:
+        for r in pool.map(rollout, jobs):  # one line per rollout as it ends: partial runs count
+            results.append(r)
+            fell = f"fell at {r['fall_time_s']:.2f} s" if r["fell"] else "survived"
+            print(f"  {r['kind']} {r['row']} {r['level']:g}: {r['force_n']:.1f} N, {fell}",
+                  flush=True)  # fmt: skip
     wall = time.perf_counter() - t0
     out: dict[str, Any] = {
         "robot": args.robot,
