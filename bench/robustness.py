@@ -27,7 +27,7 @@ import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -69,7 +69,7 @@ def walking_config(robot: str, preset: str | Path = BASE_PRESET, overrides=()) -
         f"gait.n_steps={N_STEPS}",
         f"dcm.b={b!r}",
         f"control.max_step_adjustment={round(min(0.3, spec.max_step_length_m), 3)}",
-        "sim.backend=\"mujoco\"",
+        'sim.backend="mujoco"',
     ]
     config = load_config(str(preset), [*sets, *overrides])
     return config.model_copy(update={"pushes": []})
@@ -218,8 +218,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--only", choices=("push", "pull"))
     p.add_argument("--set", action="append", default=[], dest="overrides",
                    metavar="section.key=value", help="extra preset override")  # fmt: skip
-    p.add_argument("--gain", action="append", default=[], metavar="name=value",
-                   help="whole-body QP gain (dcmviz.robots.gains.Gains field), for experiments")
+    p.add_argument(
+        "--gain",
+        action="append",
+        default=[],
+        metavar="name=value",
+        help="whole-body QP gain (dcmviz.robots.gains.Gains field), for experiments",
+    )
     args = p.parse_args(argv)
     gains = tuple((k.strip(), float(v)) for k, v in (g.split("=", 1) for g in args.gain))
 
