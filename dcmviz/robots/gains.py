@@ -28,8 +28,11 @@ class Gains:
     trunk_lean: float = 1.0
     # the trunk tilts at most this far (rad) from its target when the QP tips it to realise a
     # force the soles cannot (TrunkTilt), braking with trunk_tilt_acceleration rad/s², its rate
-    # brought within reach of that in trunk_tilt_horizon s (0: no bound)
-    trunk_tilt_limit: float = 0.2
+    # brought within reach of that in trunk_tilt_horizon s (0: no bound).  Off by default: on
+    # Talos (bench/robustness.py, 2x push starting 3.40 s) the bound stopped the hip strategy
+    # that saves the push (falls at 5.4 s with 0.2 rad, survives without), and no pull or push
+    # measured needed it (Talos 25 % pulls, G1/Romeo 15 % pulls: the same either way)
+    trunk_tilt_limit: float = 0.0
     trunk_tilt_horizon: float = 0.05
     trunk_tilt_acceleration: float = 20.0
     kp_posture: float = 30.0
