@@ -565,7 +565,7 @@ def test_recovery_dropdown_changes_the_strategy_and_keeps_the_walk(dash: Dashboa
     """Issue 11: the recovery strategy is a dropdown in the Control folder; a change keeps the
     walk (a [control] change) and the walker uses it from the next tick."""
     handle = dash.controls.handles[("control", "recovery")]
-    assert tuple(handle.options) == ("next_step", "multi_step", "multi_step_timing")
+    assert tuple(handle.options) == ("next_step", "multi_step", "multi_step_timing", "crossover")
     assert handle.value == dash.config.control.recovery == "next_step"
     session = dash.loop.session
     for _ in range(200):
