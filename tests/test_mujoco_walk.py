@@ -164,9 +164,11 @@ def _tug_of_war(force_n: float, observer: bool) -> bool:
 def test_tug_of_war_needs_the_observer():
     """tug_of_war.toml: a lateral torso pull ramped to 15 % of body weight over 6 s and held to
     the end (7 s) while walking 12 steps: survived with the observer (force shift, eqs. 47–49,
-    plus the moment shift for a pull above the CoM), lost without it."""
+    plus the moment shift for a pull above the CoM) at 0.9, 1 and 1.1 times that pull (not one
+    pinned value: on main before issue 22 it fell at exactly 133 N), lost without it."""
     force = 0.15 * 90.27 * GRAVITY
-    assert _tug_of_war(force, observer=True)
+    for scale in (0.9, 1.0, 1.1):
+        assert _tug_of_war(scale * force, observer=True), scale
     assert not _tug_of_war(force, observer=False)
 
 

@@ -203,3 +203,29 @@ def test_a_vrp_outside_the_support_keeps_its_lateral_part() -> None:
     inside = np.array([0.7, 0.0, 0.9])
     both = {"left": True, "right": True}
     np.testing.assert_array_equal(strategy.shape_vrp(inside, both, placed), inside)
+
+
+def test_the_lateral_priority_support_moves_with_the_observers_shift() -> None:
+    """With the observer's reference shift s (eqs. 47–49) the contact CoP lies −s from the VRP,
+    so the support the commanded VRP is kept in is the soles moved by s: shape_vrp(v, s) =
+    shape_vrp(v − s) + s (horizontal part of s), and a VRP that is on the soles' image is kept."""
+    from dcmviz.gait.terrain import Terrain
+    from dcmviz.recovery import MultiStepTiming
+
+    talos = load_robot("talos")
+    strategy = MultiStepTiming(talos, Terrain(), 0.3, 0.005)
+    placed = {
+        "left": Footstep("left", np.array([0.6, 0.085, 0.0]), 0.0),
+        "right": Footstep("right", np.array([0.8, -0.055, 0.0]), 0.0),
+    }
+    both = {"left": True, "right": True}
+    shift = np.array([0.01, -0.12, -0.03])
+    offset = np.array([0.01, -0.12, 0.0])
+    for v in (np.array([1.0, 0.3, 0.9]), np.array([0.7, -0.3, 0.9]), np.array([0.6, 0.2, 0.9])):
+        got = strategy.shape_vrp(v, both, placed, shift)
+        np.testing.assert_allclose(got, strategy.shape_vrp(v - offset, both, placed) + offset)
+    on_image = np.array([0.6, 0.085 - 0.12, 0.9])  # the left sole's centre, moved by the shift
+    np.testing.assert_array_equal(strategy.shape_vrp(on_image, both, placed, shift), on_image)
+    far = np.array([0.6, 0.085 + 0.05, 0.9])  # on the left sole, beyond its image
+    assert strategy.shape_vrp(far, both, placed, shift)[1] < far[1] - 0.05
+    assert strategy.shape_vrp(far, both, placed)[1] == pytest.approx(far[1])

@@ -60,9 +60,15 @@ class RecoveryStrategy(ABC):
         return None
 
     def shape_vrp(
-        self, v: np.ndarray, support: dict[str, bool], placed: dict[str, Footstep]
+        self,
+        v: np.ndarray,
+        support: dict[str, bool],
+        placed: dict[str, Footstep],
+        shift: np.ndarray | None = None,
     ) -> np.ndarray:
-        """The commanded VRP as the strategy wants it realised (default: as it is)."""
+        """The commanded VRP as the strategy wants it realised (default: as it is); ``shift`` is
+        the observer's shift of the references (eqs. 47–49): the contact CoP lies −shift from
+        the VRP."""
         return v
 
     # -- footholds (shared) -----------------------------------------------------------------

@@ -119,16 +119,20 @@ class Crossover(MultiStepTiming):
         return Adjustment(delta, (k, target), following, retarget)
 
     def shape_vrp(
-        self, v: np.ndarray, support: dict[str, bool], placed: dict[str, Footstep]
+        self,
+        v: np.ndarray,
+        support: dict[str, bool],
+        placed: dict[str, Footstep],
+        shift: np.ndarray | None = None,
     ) -> np.ndarray:
         """As multi_step's while uncrossed; while footstep k crosses, a footstep takes the
         lateral error, so the commanded VRP is left to the support as the paper's strategy
         leaves it.  Between the two, blended with the footholds' weight (no jump)."""
         if self.mode == "none" and self._from == "none":
-            return super().shape_vrp(v, support, placed)
+            return super().shape_vrp(v, support, placed, shift)
         w = self._weight()
-        crossed = v if self.mode != "none" else super().shape_vrp(v, support, placed)
-        uncrossed = super().shape_vrp(v, support, placed) if self._from == "none" else v
+        crossed = v if self.mode != "none" else super().shape_vrp(v, support, placed, shift)
+        uncrossed = super().shape_vrp(v, support, placed, shift) if self._from == "none" else v
         return (1.0 - w) * uncrossed + w * crossed
 
     def _weight(self) -> float:

@@ -133,14 +133,32 @@ class MultiStep(RecoveryStrategy):
         return corners.min(axis=0), corners.max(axis=0)
 
     def shape_vrp(
-        self, v: np.ndarray, support: dict[str, bool], placed: dict[str, Footstep]
+        self,
+        v: np.ndarray,
+        support: dict[str, bool],
+        placed: dict[str, Footstep],
+        shift: np.ndarray | None = None,
     ) -> np.ndarray:
         """The commanded VRP brought into the support polygon (the soles bearing weight, their
         hull in double support) by the projection that keeps its lateral part first (metric
         LATERAL_PRIORITY² on the feet's lateral axis) when it lies laterally beyond both feet:
         no footstep can take a lateral error towards the stance foot, a forward one the next
         footsteps can.  A VRP inside, or laterally between the feet, is kept (the backend's
-        support then decides, as for the paper's strategy)."""
+        support then decides, as for the paper's strategy).
+
+        With the observer the polygon is the soles' image in VRP space, moved by the reference
+        ``shift`` (eqs. 47–49 and the moment shift: the contact CoP lies −shift from the VRP);
+        on the soles themselves a 9 % tug of war kept Talos's CoP 7 cm inside its stance foot
+        and it fell (multi_step, presets/tug_of_war.toml at 80 N)."""
+        if shift is not None and (shift[0] or shift[1]):
+            offset = np.array([shift[0], shift[1], 0.0])
+            return self._lateral_first(v - offset, support, placed) + offset
+        return self._lateral_first(v, support, placed)
+
+    def _lateral_first(
+        self, v: np.ndarray, support: dict[str, bool], placed: dict[str, Footstep]
+    ) -> np.ndarray:
+        """:meth:`shape_vrp` on the soles themselves."""
         feet = [placed[s] for s in SIDES if support.get(s)]
         if not feet:
             return v

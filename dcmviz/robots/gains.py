@@ -23,12 +23,27 @@ class Gains:
     # momentum that the sole's CoP and torsion cannot (G1 0.4 m/s: 0.06 m wide feet)
     kp_base: float = 30.0
     kd_base: float = 11.0  # 2 √kp_base, critically damped
+    # the trunk leans along the contact force m g e_z − F̂ a sustained external force asks for
+    # (0: upright; 1: as far as that force is tilted)
+    trunk_lean: float = 1.0
+    # the trunk tilts at most this far (rad) from its target when the QP tips it to realise a
+    # force the soles cannot (TrunkTilt), braking with trunk_tilt_acceleration rad/s², its rate
+    # brought within reach of that in trunk_tilt_horizon s (0: no bound).  Off by default: on
+    # Talos (bench/robustness.py, 2x push starting 3.40 s) the bound stopped the hip strategy
+    # that saves the push (falls at 5.4 s with 0.2 rad, survives without), and no pull or push
+    # measured needed it (Talos 25 % pulls, G1/Romeo 15 % pulls: the same either way)
+    trunk_tilt_limit: float = 0.0
+    trunk_tilt_horizon: float = 0.05
+    trunk_tilt_acceleration: float = 20.0
     kp_posture: float = 30.0
     kd_posture: float = 10.0
     touchdown_depth: float = 0.01  # m below the footstep for a support foot not yet touching
     kd_stance: float = 10.0  # stance foot: a = -kd v (kills drift)
     k_angular_momentum: float = 5.0  # L̇ = -k L
     k_moment_observer: float = 10.0  # 1/s, external-moment observer gain (0: off)
+    # s: an external load held this long is taken by the feet (and leaned into); the moment of a
+    # shorter push is absorbed as angular momentum (SustainedLoad; 0: every moment at the feet)
+    sustained_time_s: float = 1.0
     w_force: float = 1000.0
     w_angular_momentum: float = 0.5
     w_base: float = 3.0

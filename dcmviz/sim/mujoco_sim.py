@@ -20,7 +20,7 @@ from dcmviz.gait.terrain import Terrain
 from dcmviz.robots import SIDES, Robot
 from dcmviz.robots.mujoco_model import FRICTION
 from dcmviz.robots.pose import RobotPose
-from dcmviz.sim.wbc import Context, Gains, MomentObserver, WholeBodyController
+from dcmviz.sim.wbc import Context, ForceObserver, Gains, MomentObserver, WholeBodyController
 from dcmviz.walker.state import FootTarget, MeasuredState, WalkerCommand
 
 TERRAIN_FRICTION = FRICTION  # as the floor's
@@ -86,7 +86,7 @@ class MujocoBackend:
         self._ground = float(self.terrain.height_at(np.array([[0.0, half], [0.0, -half]])).max())
         self.model.opt.timestep = self.control_dt / self.n_substeps
         self.data = mujoco.MjData(self.model)
-        self.wbc = WholeBodyController(self.robot, gains)
+        self.wbc = WholeBodyController(self.robot, gains, self.control_dt)
         self.timings = {
             "physics": 0.0,
             "pinocchio": 0.0,
@@ -98,6 +98,7 @@ class MujocoBackend:
         self._ctx: Context | None = None
         gain = self.wbc.gains.k_moment_observer
         self.moment_observer = MomentObserver(gain) if gain > 0 else None
+        self.force_observer = ForceObserver(gain, self.mass, GRAVITY) if gain > 0 else None
         self._observer_fresh = True
         self._contact = {s: False for s in SIDES}
         self._contact_force = {s: 0.0 for s in SIDES}
@@ -170,12 +171,15 @@ class MujocoBackend:
         if self.moment_observer is not None:
             if self._observer_fresh:
                 self.moment_observer.reset(self._ctx.angular_momentum)
+                self.force_observer.reset(self._ctx.com_velocity)
                 self._observer_fresh = False
             else:
                 self.moment_observer.update(
                     self._ctx.angular_momentum, self._contact_moment, self.control_dt
                 )
+                self.force_observer.update(self._ctx.com_velocity, self._applied, self.control_dt)
             self._ctx.external_moment = self.moment_observer.estimate.copy()
+            self._ctx.external_force = self.force_observer.estimate.copy()
         self.timings["pinocchio"] += t1 - t0
         self.timings["other"] += _clock() - t1
         return self._ctx
@@ -213,7 +217,7 @@ class MujocoBackend:
             in_contact=dict(self._contact),
             mass=self.mass,
             applied_contact_force=self._applied.copy(),
-            external_moment=ctx.external_moment.copy(),
+            external_moment=self.wbc.sustained.moment.copy(),
         )
 
     def step(self, command: WalkerCommand) -> MeasuredState:

@@ -17,12 +17,22 @@ Each tick the walker reads a :class:`~dcmviz.walker.state.MeasuredState` and ans
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from dcmviz import GRAVITY
 from dcmviz.config import Config, ControlSection
-from dcmviz.dcm import DisturbanceObserver, com_force, moment_shift, reference_shift, vrp_tracking
+from dcmviz.dcm import (
+    DisturbanceObserver,
+    com_force,
+    moment_shift,
+    reference_shift,
+    vrp_height,
+    vrp_tracking,
+)
 from dcmviz.gait import GaitPlan, Planner
+from dcmviz.gait.height import walk_height_m
 from dcmviz.gait.terrain import Terrain, terrain_of
 from dcmviz.gait.walk import Walk
 from dcmviz.recovery import NO_ADJUSTMENT, Adjustment, RecoveryStrategy, make_strategy
@@ -123,6 +133,8 @@ class Walker:
         shift = reference_shift(f_hat, m, b) if cfg.observer else np.zeros(3)
         if cfg.observer and state.external_moment is not None:
             shift = shift + moment_shift(state.external_moment, m)
+        if cfg.observer:
+            shift = self._lean_height(shift)
         if cfg.step_adjustment and not touched:  # a strategy may re-time the walk first
             plan = self.strategy.retime(walk, t, state.dcm(b), shift, cfg.max_step_adjustment)
             if plan is not None:
@@ -148,7 +160,7 @@ class Walker:
 
         v_cmd = vrp_tracking(v_ref, xi, xi_adj, cfg.k_xi, b)  # eq. (41) (eq. 24 if ξ_adj = ξ_ref)
         if cfg.step_adjustment:
-            v_cmd = self.strategy.shape_vrp(v_cmd, contact.support, walk.placed)
+            v_cmd = self.strategy.shape_vrp(v_cmd, contact.support, walk.placed, shift)
         force = com_force(state.com, v_cmd, m, b)  # eq. (4)
         contact_force = force + self._weight - f_hat
         self._last_contact_force = contact_force
@@ -181,6 +193,24 @@ class Walker:
             done=walk.done(t),
             legs_may_cross=self.strategy.crosses_legs,
         )
+
+    def _lean_height(self, shift: np.ndarray) -> np.ndarray:
+        """The reference shift with the CoM lowered where leaning away from a sustained force
+        asks more of the legs than they reach at Δz_vrp: each leg spans the lean s = |shift_xy|
+        from hip to ankle (:func:`dcmviz.gait.height.walk_height_m`), and the whole robot leaning
+        by atan(s/Δz_vrp) (the humanoid's trunk does) lifts the hip on the far side by half the
+        foot spacing times its sine: the CoM comes down by what the legs then lack."""
+        lean = math.hypot(float(shift[0]), float(shift[1]))
+        spec = self.spec
+        if lean <= 0.0 or spec.leg_length_m is None:
+            return shift
+        dz = vrp_height(self.b)
+        hip_rise = 0.5 * spec.foot_spacing_m * math.sin(math.atan2(lean, dz))
+        allowed = walk_height_m(spec, lean) - walk_height_m(spec, 0.0) - hip_rise
+        drop = min(0.0, allowed + (spec.max_com_height_m - dz))
+        if drop >= 0.0:
+            return shift
+        return np.array([shift[0], shift[1], shift[2] + drop])
 
     # -- what the walker publishes --------------------------------------------------------------
     @property

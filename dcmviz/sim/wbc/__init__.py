@@ -15,10 +15,11 @@ from dcmviz.sim.wbc.constraints import (
     JointLimits,
     StanceFoot,
     TorqueLimits,
+    TrunkTilt,
 )
 from dcmviz.sim.wbc.context import Context, Kinematics
 from dcmviz.sim.wbc.layout import Layout
-from dcmviz.sim.wbc.moment_observer import MomentObserver
+from dcmviz.sim.wbc.moment_observer import ForceObserver, MomentObserver
 from dcmviz.sim.wbc.solver import Solution, WholeBodyController
 from dcmviz.sim.wbc.tasks import (
     AngularMomentumTask,
@@ -38,6 +39,7 @@ __all__ = [
     "Context",
     "FloatingBaseDynamics",
     "FootTask",
+    "ForceObserver",
     "Gains",
     "JointLimits",
     "Kinematics",
@@ -48,5 +50,6 @@ __all__ = [
     "StanceFoot",
     "Task",
     "TorqueLimits",
+    "TrunkTilt",
     "WholeBodyController",
 ]

@@ -5,14 +5,17 @@
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 
 import numpy as np
+import pinocchio as pin
 
 from dcmviz.robots import SIDES, Robot
 from dcmviz.robots.gains import Gains
 from dcmviz.sim.wbc.context import Context
 from dcmviz.sim.wbc.layout import Layout
+from dcmviz.sim.wbc.tasks import BaseOrientationTask
 from dcmviz.walker.state import WalkerCommand
 
 INF = 1e30  # a bound daqp reads as none
@@ -30,7 +33,14 @@ class Constraint(ABC):
 
 
 class FloatingBaseDynamics(Constraint):
-    """Unactuated rows: M[:6] q̈ - Σ J_i[:, :6]ᵀ w_i = -h[:6]."""
+    """Unactuated rows: M[:6] q̈ - Σ J_i[:, :6]ᵀ w_i = -h[:6] + w_ext.
+
+    w_ext is the estimated external wrench on the base, the force F̂ (:class:`ForceObserver`)
+    and the moment τ̂ about the CoM (:class:`MomentObserver`), in the base frame at its origin:
+    [Rᵀ F̂; Rᵀ (τ̂ + (c - p_base) × F̂)].  A push on the upper body of a robot whose upper body
+    is locked to the base acts on the base exactly so (its Jacobian has no joint columns): the
+    joint torques then carry the push to the feet instead of the QP expecting accelerations the
+    push cancels (a torso pull of 130 N on Talos: 4 rad/s² of trunk roll asked, 0.2 realised)."""
 
     rows = 6
 
@@ -45,6 +55,12 @@ class FloatingBaseDynamics(Constraint):
         for s in SIDES:
             np.negative(ctx.sole_jacobian[s][:, :6].T, out=A[:, self.layout.wrench[s]])
         np.negative(ctx.h[:6], out=lo)
+        force = ctx.external_force
+        moment = ctx.external_moment
+        if force.any() or moment.any():
+            rot_t = ctx.base_rotation.T
+            lo[:3] += rot_t @ force
+            lo[3:] += rot_t @ (moment + np.cross(ctx.com - ctx.q[:3], force))
         up[:] = lo
         return True
 
@@ -175,4 +191,43 @@ class TorqueLimits(Constraint):
         h = ctx.h[6:]
         np.subtract(self._lower, h, out=lo)
         np.subtract(self.limit, h, out=up)
+        return False
+
+
+class TrunkTilt(Constraint):
+    """The trunk tilts (roll, pitch) at most θ_max from its target R_d (:class:`BaseOrientationTask`),
+    braking with at most a: about the world x and y axes the tilt rate ω may reach
+    ω_max = sqrt(2 a (θ_max − θ − ω T)) (the rate it can still stop from before θ_max, from
+    where it will be once ω̇ ≤ (ω_max − ω)/T has brought it there; negative, back, beyond it;
+    the same below −θ_max).
+    When the soles' CoP saturates the QP realises the asked force by tipping the trunk (the CMP
+    leaves the CoP: a hip strategy); unbounded, Talos pushed towards its stance foot rolled
+    0.42 rad in 0.4 s and sat on its hip-roll stops (±0.52 rad), unable to step.  Each bound is
+    kept within ±4 a (a stop no harder than that); soft, as the joint ranges."""
+
+    rows = 2
+    soft = True
+
+    def __init__(
+        self, layout: Layout, task: BaseOrientationTask, limit: float, horizon: float,
+        max_acceleration: float,
+    ) -> None:  # fmt: skip
+        self.layout, self.task = layout, task
+        self.limit, self.horizon, self.max_acceleration = limit, horizon, max_acceleration
+
+    def compute(
+        self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
+    ) -> bool:
+        R = ctx.base_rotation
+        A[:, 3:6] = R[:2]  # ω̇_world[:2] = R[:2] ω̇_local
+        tilt = -pin.log3(self.task.target(ctx, cmd) @ R.T)[:2]  # from R_d to R, world
+        a, T, stop = self.max_acceleration, self.horizon, 4.0 * self.max_acceleration
+        for i in range(2):
+            omega = float(ctx.base_omega[i])
+            ahead = tilt[i] + omega * T  # where the rate is caught up with: brake from there
+            room_up, room_down = self.limit - ahead, self.limit + ahead
+            fastest = math.copysign(math.sqrt(2.0 * a * abs(room_up)), room_up)
+            slowest = -math.copysign(math.sqrt(2.0 * a * abs(room_down)), room_down)
+            up[i] = min(max((fastest - omega) / T, -stop), stop)
+            lo[i] = min(max((slowest - omega) / T, -stop), stop)
         return False

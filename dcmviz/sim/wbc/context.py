@@ -32,6 +32,10 @@ class Context:
     sole_drift: dict[str, np.ndarray] = field(default_factory=dict)  # (6,) J̇ v, classical
     active: dict[str, bool] = field(default_factory=dict)  # wrench variable allowed
     external_moment: np.ndarray = field(default_factory=lambda: np.zeros(3))  # estimate, N m
+    external_force: np.ndarray = field(default_factory=lambda: np.zeros(3))  # estimate, N
+    # the sustained part of the external load (:class:`SustainedLoad`), set by the solver
+    sustained_force: np.ndarray = field(default_factory=lambda: np.zeros(3))  # N
+    sustained_moment: np.ndarray = field(default_factory=lambda: np.zeros(3))  # N m, about the CoM
     # Pinocchio's model and its data at (q, v) (joints' placements, Jacobians, accelerations at
     # q̈ = 0): a constraint evaluating frames of its own reads them (dcmviz.sim.wbc.legs)
     model: object = None
@@ -89,6 +93,6 @@ class Kinematics:
             drift,
             {},
             np.zeros(3),
-            m,
-            d,
+            model=m,
+            data=d,
         )

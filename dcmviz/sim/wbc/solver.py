@@ -32,10 +32,12 @@ from dcmviz.sim.wbc.constraints import (
     JointLimits,
     StanceFoot,
     TorqueLimits,
+    TrunkTilt,
 )
 from dcmviz.sim.wbc.context import Context, Kinematics
 from dcmviz.sim.wbc.layout import Layout
 from dcmviz.sim.wbc.legs import LegClearance
+from dcmviz.sim.wbc.sustained import SustainedLoad
 from dcmviz.sim.wbc.tasks import (
     AngularMomentumTask,
     AnkleStops,
@@ -65,7 +67,7 @@ class Solution:
 class WholeBodyController:
     """Builds and solves the QP from a list of tasks and constraints each tick."""
 
-    def __init__(self, robot: Robot, gains: Gains | None = None) -> None:
+    def __init__(self, robot: Robot, gains: Gains | None = None, control_dt: float = 0.002) -> None:
         self.robot = robot
         self.gains = g = gains or Gains.for_robot(robot)
         self.layout = lay = Layout(robot.nv)
@@ -74,7 +76,9 @@ class WholeBodyController:
         self.tasks: list[Task] = [
             ContactForceTask(lay, mass, g.w_force),
             AngularMomentumTask(lay, mass, g.k_angular_momentum, g.w_angular_momentum),
-            BaseOrientationTask(lay, g.kp_base, g.kd_base, g.w_base, robot.base_offset),
+            base := BaseOrientationTask(
+                lay, g.kp_base, g.kd_base, g.w_base, robot.base_offset, g.trunk_lean, mass
+            ),
             *(
                 FootTask(
                     s,
@@ -97,6 +101,11 @@ class WholeBodyController:
             *(ContactWrenchCone(s, lay, robot, g) for s in SIDES),
             TorqueLimits(robot, lay),
         ]
+        if g.trunk_tilt_limit > 0:
+            self.constraints.append(
+                TrunkTilt(lay, base, g.trunk_tilt_limit, g.trunk_tilt_horizon,
+                          g.trunk_tilt_acceleration)
+            )  # fmt: skip
         if g.joint_limits:
             self.constraints.append(
                 JointLimits(robot, lay, g.joint_limit_horizon, g.joint_limit_margin)
@@ -162,6 +171,7 @@ class WholeBodyController:
         self.last: Solution | None = None
         self.failures = 0  # QPs that failed (previous torques held)
         self._held_tau = np.zeros(robot.nu)  # torques of the last solved QP, N m
+        self.sustained = SustainedLoad(g.sustained_time_s, control_dt)
         self.reset()
 
     def reset(self) -> None:
@@ -172,6 +182,7 @@ class WholeBodyController:
             self.timings[key] = 0.0
         self.last = None
         self.failures = 0
+        self.sustained.reset()
 
     def solve(self, ctx: Context, cmd: WalkerCommand, in_contact: dict[str, bool]) -> Solution:
         """τ for this tick; ``in_contact`` is the *measured* contact of each sole."""
@@ -180,6 +191,9 @@ class WholeBodyController:
         nv = lay.nv
         for s in SIDES:
             ctx.active[s] = bool(in_contact[s] and cmd.support[s])
+        self.sustained.update(cmd.t, cmd.f_hat, ctx.external_moment)
+        ctx.sustained_force = self.sustained.force
+        ctx.sustained_moment = self.sustained.moment
         H = self._H
         np.copyto(H, self._H_constant)
         c = self._c

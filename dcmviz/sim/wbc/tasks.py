@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from dcmviz import GRAVITY
 from dcmviz.robots import SIDES, Robot
 from dcmviz.sim.wbc.context import Context
 from dcmviz.sim.wbc.layout import Layout
@@ -51,10 +52,12 @@ class ContactForceTask(Task):
 
 
 class AngularMomentumTask(Task):
-    """Σ_i (p_i - c) × f_i + τ_i = -k L - τ̂_ext (moments about the CoM), scaled by 1/(m·1 m).
+    """Σ_i (p_i - c) × f_i + τ_i = -k L - τ̂_s (moments about the CoM), scaled by 1/(m·1 m).
 
-    τ̂_ext is the estimated external moment about the CoM (:class:`MomentObserver`), so that a push
-    above or below the CoM is countered by the feet instead of spinning the robot."""
+    τ̂_s is the sustained part of the estimated external moment about the CoM
+    (:class:`MomentObserver`, :class:`SustainedLoad`): a pull held above the CoM is countered by
+    the feet; the moment of a short push is not, it goes into the angular momentum (L̇ = τ̂ − τ̂_s
+    − k L) and is given back at the rate k once the push is over."""
 
     def __init__(self, layout: Layout, mass: float, k: float, weight: float) -> None:
         self.layout, self.mass, self.k, self.weight = layout, mass, k, weight
@@ -73,13 +76,23 @@ class AngularMomentumTask(Task):
             A[0, i + 1], A[0, i + 2] = -rz, ry  # [r]× f
             A[1, i], A[1, i + 2] = rz, -rx
             A[2, i], A[2, i + 1] = -ry, rx
-        return self.A, -(self.k * ctx.angular_momentum + ctx.external_moment) / self.mass
+        return self.A, -(self.k * ctx.angular_momentum + ctx.sustained_moment) / self.mass
 
 
 class BaseOrientationTask(Task):
     """ω̇_base = kp log(R_d Rᵀ) - kd ω, R_d = R_z(mean foot target yaw) R_0 (base ≡ locked
     torso), R_0 the base's standing orientation relative to the feet (``Robot.base_offset``:
-    None for the identity)."""
+    None for the identity).
+
+    Leaning (``lean`` > 0, with the robot's ``mass``): a sustained external force F̂ (the walker's
+    estimate, eq. 45) and moment τ̂ about the CoM (:class:`SustainedLoad`) hold the CoM
+    d = (-z F̂_xy + (-τ̂_y, τ̂_x)) / (m g) away from the centre of pressure (the reference shift
+    of eqs. 47–49 and ``moment_shift``, z the CoM height above the soles), so the whole robot
+    leans along (d, z), as a person in a tug of war does.  R_d tilts the trunk ``lean`` × that
+    far: upright, the trunk would hang its weight and the pull's moment on the stance hip
+    (Talos: 160 N m, the hip roll limit, at 20 % of its weight) and the legs would bend sideways
+    at the hips to their ranges.
+    """
 
     def __init__(
         self,
@@ -88,18 +101,48 @@ class BaseOrientationTask(Task):
         kd: float,
         weight: float,
         base_offset: np.ndarray | None = None,
+        lean: float = 0.0,
+        mass: float | None = None,
     ) -> None:
         self.kp, self.kd, self.weight = kp, kd, weight
         self.base_offset = base_offset
+        self.lean = lean if mass else 0.0
+        self.weight_n = (mass or 0.0) * GRAVITY
         self.A = np.zeros((3, layout.nx))
         self.constant_gram = np.zeros((layout.nx, layout.nx))
         self.constant_gram[3:6, 3:6] = np.eye(3)  # A = [0 R 0]: AᵀA = RᵀR = I
+        self._target: tuple[Context, np.ndarray] | None = None
 
-    def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
+    def lean_rotation(self, ctx: Context, cmd: WalkerCommand) -> np.ndarray | None:
+        """The tilt of R_d (3×3) for the present estimates, None when there is none."""
+        fx, fy, _ = ctx.sustained_force.tolist()
+        tx, ty, _ = ctx.sustained_moment.tolist()
+        z = float(ctx.com[2]) - min(float(p[2]) for p in ctx.sole_position.values())
+        dx = (-z * fx - ty) / self.weight_n
+        dy = (-z * fy + tx) / self.weight_n
+        d = math.hypot(dx, dy)
+        if d < 1e-9 or z <= 0.0:
+            return None
+        angle = self.lean * math.atan2(d, z)
+        return pin.exp3(np.array([-dy / d, dx / d, 0.0]) * angle)  # about e_z × d
+
+    def target(self, ctx: Context, cmd: WalkerCommand) -> np.ndarray:
+        """R_d for this tick (computed once per context)."""
+        cached = self._target
+        if cached is not None and cached[0] is ctx:
+            return cached[1]
         y_l, y_r = cmd.feet["left"].yaw, cmd.feet["right"].yaw
         yaw = math.atan2(math.sin(y_l) + math.sin(y_r), math.cos(y_l) + math.cos(y_r))
-        desired = _rot_z(yaw) if self.base_offset is None else _rot_z(yaw) @ self.base_offset
-        err = pin.log3(desired @ ctx.base_rotation.T)
+        target = _rot_z(yaw) if self.base_offset is None else _rot_z(yaw) @ self.base_offset
+        if self.lean:
+            tilt = self.lean_rotation(ctx, cmd)
+            if tilt is not None:
+                target = tilt @ target
+        self._target = (ctx, target)
+        return target
+
+    def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
+        err = pin.log3(self.target(ctx, cmd) @ ctx.base_rotation.T)
         self.A[:, 3:6] = ctx.base_rotation  # ω_world = R ω_local, ω̇_world = R ω̇_local
         return self.A, self.kp * err - self.kd * ctx.base_omega
 

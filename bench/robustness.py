@@ -1,0 +1,307 @@
+"""Survival of the paper's push and tug of war on one robot, at several scales (issue 22).
+
+    python bench/robustness.py --robot NAME|PATH [--jobs N] [--json PATH]
+        [--scales 0.5,1,1.5,2,2.5,3] [--starts 4] [--levels 5,10,15,20,25,30,35]
+        [--pull-sides +,-] [--recovery next_step] [--no-observer] [--only push|pull]
+
+Both scenarios are scaled by the robot's mass m and walk a gait derived from the robot's own
+numbers (``walking_config``), never tuned per robot:
+
+- push (paper, Sec. IV): +F then -F lateral, 1 s each, 4 s apart, on the torso, with
+  F = scale × 25 N × m / 76 kg (Toro's 76 kg: the same acceleration, 0.33 m/s² per unit scale).
+  The first push starts at 2.5 s plus an offset that sweeps one gait cycle (two steps) in
+  ``--starts`` equal parts, so it lands in every phase of the gait and on either stance foot.
+- pull (paper's observer test): a lateral force on the torso ramped from 0 over 6 s from t = 1 s
+  and held to the end (walking 12 steps, then standing), level × m g, on each side asked.
+
+Per start time (push) and per side (pull) it prints which levels were survived, the first
+fall, and the holes: levels that fell although a higher level of the same row was survived
+(survival should be monotone in the force).  ``--json`` writes the same as data.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from dcmviz import GRAVITY  # noqa: E402
+from dcmviz.config import Config, Push  # noqa: E402
+from dcmviz.robots import load_robot  # noqa: E402
+from dcmviz.run import load_config  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+BASE_PRESET = ROOT / "presets" / "walk_forward.toml"
+PAPER_FORCE_N = 25.0  # the paper's lateral push on Toro
+PAPER_MASS_KG = 76.0  # Toro
+PUSH_S = 1.0
+PUSH_FIRST_S = 2.5  # first push start before the offset
+PUSH_GAP_S = 4.0  # -F this long after +F
+PULL_START_S = 1.0
+PULL_RAMP_S = 6.0
+N_STEPS = 12
+PUSH_DURATION_S = 13.5  # the last push ends by 8.85 s; the walk ends at 12.8 s
+PULL_DURATION_S = 14.0  # as presets/tug_of_war.toml: walking ends at 12.8 s, then standing
+DEFAULT_SCALES = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0)
+DEFAULT_LEVELS = (5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0)  # % of m g
+
+
+def walking_config(robot: str, preset: str | Path = BASE_PRESET, overrides=()) -> Config:
+    """``preset`` on ``robot`` with the gait derived from the robot's numbers: steps of
+    min(0.20 m, 0.8 × max_step_length), width = the standing foot spacing, b from the standing
+    CoM height (inside the robot's b range), adjustment up to min(0.3 m, max_step_length),
+    N_STEPS steps (the preset's timing, observer, recovery)."""
+    spec = load_robot(robot).spec
+    b_lo, b_hi = spec.b_range_s
+    b = min(max(spec.b_nominal_s, b_lo), b_hi)
+    sets = [
+        f'robot.model="{robot}"',
+        f"gait.step_length={round(min(0.20, 0.8 * spec.max_step_length_m), 3)}",
+        f"gait.step_width={round(spec.foot_spacing_m, 3)}",
+        f"gait.n_steps={N_STEPS}",
+        f"dcm.b={b!r}",
+        f"control.max_step_adjustment={round(min(0.3, spec.max_step_length_m), 3)}",
+        'sim.backend="mujoco"',
+    ]
+    config = load_config(str(preset), [*sets, *overrides])
+    return config.model_copy(update={"pushes": []})
+
+
+def push_config(base: Config, mass: float, scale: float, start: float) -> Config:
+    f = scale * PAPER_FORCE_N * mass / PAPER_MASS_KG
+    pushes = [
+        Push(start=start, duration=PUSH_S, force=(0.0, f, 0.0), ramp=0.0, body="torso"),
+        Push(start=start + PUSH_GAP_S, duration=PUSH_S, force=(0.0, -f, 0.0), ramp=0.0,
+             body="torso"),
+    ]  # fmt: skip
+    return base.model_copy(update={"pushes": pushes})
+
+
+def pull_config(base: Config, mass: float, level_pct: float, side: float) -> Config:
+    f = side * level_pct / 100.0 * mass * GRAVITY
+    push = Push(
+        start=PULL_START_S,
+        duration=PULL_DURATION_S,
+        force=(0.0, f, 0.0),
+        ramp=PULL_RAMP_S,
+        body="torso",
+    )
+    return base.model_copy(update={"pushes": [push]})
+
+
+@dataclass(frozen=True)
+class Job:
+    kind: str  # "push" | "pull"
+    row: str  # start offset (push) or side (pull)
+    level: float  # scale (push) or % of m g (pull)
+    config: Config
+    duration: float
+    gains: tuple[tuple[str, float], ...] = ()
+
+
+def _with_gains(gains: tuple[tuple[str, float], ...]) -> None:
+    """Experiments: whole-body QP gains (``Gains`` fields) on top of the robot's, this process."""
+    if not gains:
+        return
+    from dcmviz.robots import gains as module
+
+    base = module.Gains.__dict__["for_robot"].__func__
+
+    def for_robot(cls, robot):
+        g = base(cls, robot)
+        for key, value in gains:
+            setattr(g, key, value)
+        return g
+
+    module.Gains.for_robot = classmethod(for_robot)
+
+
+def rollout(job: Job) -> dict[str, Any]:
+    from dcmviz.session import Session
+
+    _with_gains(job.gains)
+    t0 = time.perf_counter()
+    session = Session(job.config, backend="mujoco")
+    metrics = session.run(job.duration, stop_on_fall=True)
+    return {
+        "kind": job.kind,
+        "row": job.row,
+        "level": job.level,
+        "force_n": float(max(abs(p.force[1]) for p in job.config.pushes)),
+        "fell": bool(metrics.fell),
+        "fall_time_s": metrics.fall_time_s,
+        "steps_completed": int(session.steps_completed),
+        "max_dcm_error_m": float(metrics.max_dcm_error_m),
+        "wall_s": time.perf_counter() - t0,
+    }
+
+
+class _Serial:
+    """``map`` in this process (``--jobs 1``), lazily."""
+
+    def __enter__(self) -> _Serial:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    @staticmethod
+    def map(fn, items):
+        return map(fn, items)
+
+
+def summarise(results: list[dict[str, Any]], levels: list[float]) -> dict[str, Any]:
+    """Per row: survived levels, first fall, holes (falls below a survived level)."""
+    rows: dict[str, dict[str, Any]] = {}
+    for r in results:
+        rows.setdefault(r["row"], {})[r["level"]] = r
+    out = {}
+    for row, by_level in rows.items():
+        fell = {lv: by_level[lv]["fell"] for lv in levels if lv in by_level}
+        survived = [lv for lv, f in fell.items() if not f]
+        falls = [lv for lv, f in fell.items() if f]
+        highest = max(survived) if survived else None
+        holes = [lv for lv in falls if highest is not None and lv < highest]
+        out[row] = {
+            "first_fall": min(falls) if falls else None,
+            "highest_survived": highest,
+            "holes": holes,
+            "fell": {str(k): v for k, v in fell.items()},
+            "fall_time_s": {str(lv): by_level[lv]["fall_time_s"] for lv in fell},
+        }
+    return out
+
+
+def table(title: str, unit: str, summary: dict[str, Any], levels: list[float]) -> str:
+    head = f"{title:<14}" + "".join(f"{lv:>7g}" for lv in levels) + "   first fall  holes"
+    lines = [head, "-" * len(head)]
+    for row, s in summary.items():
+        cells = []
+        for lv in levels:
+            f = s["fell"].get(str(lv))
+            if f is None:
+                cells.append(f"{'':>7}")
+            elif f:
+                cells.append(f"{'F' + format(s['fall_time_s'][str(lv)], '.1f'):>7}")
+            else:
+                cells.append(f"{'ok':>7}")
+        first = "-" if s["first_fall"] is None else f"{s['first_fall']:g}{unit}"
+        holes = ",".join(f"{h:g}" for h in s["holes"]) or "-"
+        lines.append(f"{row:<14}" + "".join(cells) + f"   {first:>10}  {holes}")
+    return "\n".join(lines)
+
+
+def floats(text: str) -> list[float]:
+    return [float(x) for x in text.split(",") if x.strip()]
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--robot", required=True, help="built-in name or robot file path")
+    p.add_argument("--jobs", type=int, default=1, help="parallel rollouts (processes)")
+    p.add_argument("--json", type=Path, help="write the results as JSON")
+    p.add_argument("--preset", default=str(BASE_PRESET), help="base preset (gait timing, control)")
+    p.add_argument("--scales", type=floats, default=list(DEFAULT_SCALES))
+    p.add_argument("--starts", type=int, default=4, help="push start times over one gait cycle")
+    p.add_argument("--levels", type=floats, default=list(DEFAULT_LEVELS), help="pull, % of m g")
+    p.add_argument("--pull-sides", default="+,-", help="pull directions: +,- (left, right)")
+    p.add_argument("--recovery", choices=("next_step", "multi_step", "multi_step_timing"))
+    p.add_argument("--no-observer", action="store_true", help="control.observer = false")
+    p.add_argument("--only", choices=("push", "pull"))
+    p.add_argument("--set", action="append", default=[], dest="overrides",
+                   metavar="section.key=value", help="extra preset override")  # fmt: skip
+    p.add_argument(
+        "--gain",
+        action="append",
+        default=[],
+        metavar="name=value",
+        help="whole-body QP gain (dcmviz.robots.gains.Gains field), for experiments",
+    )
+    args = p.parse_args(argv)
+    gains = tuple((k.strip(), float(v)) for k, v in (g.split("=", 1) for g in args.gain))
+
+    overrides = list(args.overrides)
+    if args.recovery:
+        overrides.append(f'control.recovery="{args.recovery}"')
+    if args.no_observer:
+        overrides.append("control.observer=false")
+    base = walking_config(args.robot, args.preset, overrides)
+    mass = load_robot(args.robot).spec.mass_kg
+    cycle = 2.0 * (base.gait.t_ss + base.gait.t_ds)
+    offsets = [round(cycle * i / args.starts, 3) for i in range(args.starts)]
+    sides = [s.strip() for s in args.pull_sides.split(",") if s.strip()]
+    jobs: list[Job] = []
+    if args.only in (None, "push"):
+        for off in offsets:
+            for sc in args.scales:
+                cfg = push_config(base, mass, sc, PUSH_FIRST_S + off)
+                jobs.append(Job("push", f"start {PUSH_FIRST_S + off:.2f}s", sc, cfg,
+                                PUSH_DURATION_S, gains))  # fmt: skip
+    if args.only in (None, "pull"):
+        for side in sides:
+            sign = -1.0 if side.startswith("-") else 1.0
+            for lv in args.levels:
+                cfg = pull_config(base, mass, lv, sign)
+                jobs.append(Job("pull", f"pull {'+y' if sign > 0 else '-y'}", lv, cfg,
+                                PULL_DURATION_S, gains))  # fmt: skip
+    g = base.gait
+    print(
+        f"{args.robot}: {mass:.2f} kg; gait {g.n_steps} steps of {g.step_length} m, width "
+        f"{g.step_width} m, T_ss {g.t_ss} s, T_ds {g.t_ds} s; b {base.dcm.b} s; recovery "
+        f"{base.control.recovery}; observer {base.control.observer}; {len(jobs)} rollouts, "
+        f"{args.jobs} jobs{'; gains ' + str(dict(gains)) if gains else ''}",
+        flush=True,
+    )
+    t0 = time.perf_counter()
+    results = []
+    with ProcessPoolExecutor(max_workers=args.jobs) if args.jobs > 1 else _Serial() as pool:
+        for r in pool.map(rollout, jobs):  # one line per rollout as it ends: partial runs count
+            results.append(r)
+            fell = f"fell at {r['fall_time_s']:.2f} s" if r["fell"] else "survived"
+            print(f"  {r['kind']} {r['row']} {r['level']:g}: {r['force_n']:.1f} N, {fell}",
+                  flush=True)  # fmt: skip
+    wall = time.perf_counter() - t0
+    out: dict[str, Any] = {
+        "robot": args.robot,
+        "mass_kg": mass,
+        "gait": g.model_dump() if hasattr(g, "model_dump") else str(g),
+        "b": base.dcm.b,
+        "recovery": base.control.recovery,
+        "observer": base.control.observer,
+        "gains": dict(gains),
+        "wall_time_s": wall,
+        "rollouts": results,
+    }
+    unit_push = "x"
+    if args.only in (None, "push"):
+        pr = [r for r in results if r["kind"] == "push"]
+        s = summarise(pr, args.scales)
+        out["push"] = {"scales": args.scales, "force_per_scale_n": PAPER_FORCE_N * mass /
+                       PAPER_MASS_KG, "rows": s}  # fmt: skip
+        print(f"\npush ±25 N × 1 s × m/76 kg × scale (F{PAPER_FORCE_N * mass / PAPER_MASS_KG:.1f}"
+              f" N per unit scale); F<t>: fell at t s")  # fmt: skip
+        print(table("push scale", unit_push, s, args.scales))
+    if args.only in (None, "pull"):
+        pr = [r for r in results if r["kind"] == "pull"]
+        s = summarise(pr, args.levels)
+        out["pull"] = {"levels_pct": args.levels, "rows": s}
+        print(f"\npull ramped over {PULL_RAMP_S:g} s and held, % of m g ({mass * GRAVITY:.0f} N)")
+        print(table("pull % mg", "%", s, args.levels))
+    print(f"\n{len(jobs)} rollouts in {wall:.0f} s wall")
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(out, indent=1, default=str))
+    return 0
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    sys.exit(main())

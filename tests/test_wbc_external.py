@@ -1,0 +1,205 @@
+"""The whole-body QP under an external load (issue 22): the estimated wrench in its dynamics,
+the sustained part of the load, the trunk's lean and tilt bound, and the walker's lowered
+references where a lean asks more of the legs than they reach."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from dcmviz import GRAVITY
+from dcmviz.config import load_preset
+from dcmviz.robots import SIDES, Robot, load_robot
+from dcmviz.sim.wbc import (
+    BaseOrientationTask,
+    FloatingBaseDynamics,
+    Kinematics,
+    Layout,
+    TrunkTilt,
+)
+from dcmviz.sim.wbc.sustained import SustainedLoad
+from dcmviz.walker import Walker
+from dcmviz.walker.state import FootTarget, WalkerCommand
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def robot() -> Robot:
+    return load_robot("talos")
+
+
+def _command(robot: Robot, q: np.ndarray, f_hat=(0.0, 0.0, 0.0)) -> WalkerCommand:
+    model, data = robot.pin_model, robot.pin_model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    feet = {s: data.oMf[robot.sole_frames[s]].translation.copy() for s in SIDES}
+    zero = np.zeros(3)
+    return WalkerCommand(
+        t=0.0,
+        support={s: True for s in SIDES},
+        feet={s: FootTarget(position=feet[s]) for s in SIDES},
+        swing_side=None,
+        com_force=zero,
+        contact_force=np.array([0.0, 0.0, robot.mass * GRAVITY]),
+        xi=zero,
+        xi_ref=zero,
+        xi_adj=zero,
+        v_ref=zero,
+        v_cmd=zero,
+        f_hat=np.array(f_hat, dtype=float),
+    )
+
+
+def test_floating_base_rows_carry_a_push_on_the_upper_body(robot):
+    """A force F at a point of the (locked) torso, given to the QP as the estimates F̂ and
+    τ̂ = (p − c) × F about the CoM: the QP's unactuated rows hold for the q̈ that
+    Pinocchio's ABA gives with F applied at that point (and random torques and sole wrenches)."""
+    model, data = robot.pin_model, robot.pin_model.createData()
+    rng = np.random.default_rng(7)
+    q = robot.q_nominal.copy()
+    q[3:7] = pin.Quaternion(pin.exp3(np.array([0.1, -0.2, 0.4]))).coeffs()
+    q[7:] += rng.normal(scale=0.1, size=robot.nu)
+    v = rng.normal(scale=0.3, size=robot.nv)
+    tau = np.zeros(robot.nv)
+    tau[6:] = rng.normal(scale=5.0, size=robot.nu)
+    wrenches = {s: np.concatenate([rng.normal(scale=20.0, size=3) + [0, 0, 300.0],
+                                   rng.normal(scale=5.0, size=3)]) for s in SIDES}  # fmt: skip
+    force = np.array([30.0, -120.0, 15.0])
+    torso = model.getFrameId(robot.spec.bodies["torso"])
+    pin.forwardKinematics(model, data, q)
+    pin.updateFramePlacements(model, data)
+    point = data.oMf[torso].translation + np.array([0.05, 0.02, 0.1])
+    assert model.frames[torso].parentJoint == 1  # the upper body is locked to the base
+    fext = [pin.Force.Zero() for _ in range(model.njoints)]
+
+    def add(joint: int, f: np.ndarray, moment_about_origin: np.ndarray) -> None:
+        fext[joint] += data.oMi[joint].actInv(pin.Force(f, moment_about_origin))
+
+    add(1, force, np.cross(point, force))
+    for s in SIDES:
+        frame = model.frames[robot.sole_frames[s]]
+        p = data.oMf[robot.sole_frames[s]].translation
+        add(frame.parentJoint, wrenches[s][:3], wrenches[s][3:] + np.cross(p, wrenches[s][:3]))
+    a = pin.aba(model, data, q, v, tau, fext).copy()
+
+    layout = Layout(robot.nv)
+    ctx = Kinematics(robot).context(q, v)
+    ctx.external_moment = np.cross(point - ctx.com, force)
+    ctx.external_force = force
+    con = FloatingBaseDynamics(layout)
+    A, lo, up = np.zeros((6, layout.nx)), np.zeros(6), np.zeros(6)
+    assert con.compute(ctx, _command(robot, q), A, lo, up)
+    x = np.zeros(layout.nx)
+    x[: robot.nv] = a
+    for s in SIDES:
+        x[layout.wrench[s]] = wrenches[s]
+    np.testing.assert_allclose(A @ x, lo, atol=1e-8)
+    # without the push the rows would be off by the push's wrench on the base
+    con_free = FloatingBaseDynamics(layout)
+    ctx.external_moment, ctx.external_force = np.zeros(3), np.zeros(3)
+    con_free.compute(ctx, _command(robot, q), A, lo, up)
+    assert np.linalg.norm(A @ x - lo) > 50.0
+
+
+def test_sustained_load_passes_what_lasts_and_drops_pushes():
+    """T = 1 s: a 0.5 s push never passes; a force held 3 s passes from 1 s after its start to
+    its end, then drops at once; a ramp passes 1 s late; a sign change resets the component."""
+    dt = 0.002
+    load = SustainedLoad(1.0, dt)
+    seen = []
+    for k in range(3000):
+        t = k * dt
+        push = 40.0 if 0.2 <= t < 0.7 else 0.0
+        held = 100.0 if 1.0 <= t < 4.0 else 0.0
+        ramp = 10.0 * t
+        flip = 5.0 if t < 3.0 else -5.0
+        load.update(t, np.array([push, held, ramp]), np.array([flip, 0.0, 0.0]))
+        seen.append((t, *load.force, load.moment[0]))
+    seen = np.array(seen)
+    t = seen[:, 0]
+    assert np.all(seen[:, 1] == 0.0)  # the push
+    inside = (t > 2.0 + dt) & (t < 4.0 - dt)
+    assert np.all(seen[inside, 2] == 100.0)
+    assert np.all(seen[(t < 2.0 - dt) | (t > 4.0 + dt), 2] == 0.0)
+    late = t > 1.5
+    np.testing.assert_allclose(seen[late, 3], 10.0 * (t[late] - 1.0 + dt), atol=1e-9)
+    assert np.all(seen[(t > 3.0 + dt) & (t < 4.0 - dt), 4] == 0.0)
+    assert np.all(seen[(t > 4.0 + dt), 4] == -5.0)
+
+
+def test_the_trunk_leans_with_the_robot_under_a_sustained_pull(robot):
+    """A pull F e_y held at height h above the CoM: the CoM sits d = (z + h) F/(m g) from the
+    CoP, so R_d turns e_z to (0, −d, z)/|·| (the trunk leans away from the pull)."""
+    layout = Layout(robot.nv)
+    task = BaseOrientationTask(layout, kp=30.0, kd=11.0, weight=3.0, lean=1.0, mass=robot.mass)
+    q = robot.q_nominal.copy()
+    ctx = Kinematics(robot).context(q, np.zeros(robot.nv))
+    z = ctx.com[2] - min(ctx.sole_position[s][2] for s in SIDES)
+    force, lever = 150.0, 0.4
+    ctx.sustained_force = np.array([0.0, force, 0.0])
+    ctx.sustained_moment = np.array([-lever * force, 0.0, 0.0])
+    up = task.target(ctx, _command(robot, q)) @ np.array([0.0, 0.0, 1.0])
+    d = (z + lever) * force / (robot.mass * GRAVITY)
+    np.testing.assert_allclose(up, np.array([0.0, -d, z]) / math.hypot(d, z), atol=1e-12)
+
+
+def test_trunk_tilt_bounds_brake_before_the_limit(robot):
+    """The base turned θ about x from R_d (upright, yaw of the feet) rolling at ω: ω̇_x may
+    take ω to ±sqrt(2 a (θ_max ∓ (θ + ω T))) within T (the rate that still stops at ±θ_max
+    braking with a), within ±4 a; integrating the most the bound allows stops at θ_max."""
+    layout = Layout(robot.nv)
+    task = BaseOrientationTask(layout, kp=30.0, kd=11.0, weight=3.0)
+    limit, T, a = 0.2, 0.05, 20.0
+    con = TrunkTilt(layout, task, limit=limit, horizon=T, max_acceleration=a)
+
+    def bounds(theta: float, omega: float) -> tuple[float, float]:
+        q = robot.q_nominal.copy()
+        q[3:7] = pin.Quaternion(pin.exp3(np.array([theta, 0.0, 0.0]))).coeffs()
+        v = np.zeros(robot.nv)
+        v[3] = omega  # base frame; about x for a pure roll
+        ctx = Kinematics(robot).context(q, v)
+        A, lo, up = np.zeros((2, layout.nx)), np.zeros(2), np.zeros(2)
+        con.compute(ctx, _command(robot, q), A, lo, up)
+        np.testing.assert_allclose(A[0, 3:6], ctx.base_rotation[0], atol=1e-12)
+        return lo[0], up[0]
+
+    for theta, omega in ((0.05, 0.3), (0.15, 0.5), (-0.1, -0.2), (0.25, 0.0), (0.0, 3.0)):
+        lo, up = bounds(theta, omega)
+        room = limit - theta - omega * T
+        fastest = math.copysign(math.sqrt(2 * a * abs(room)), room)
+        slowest = -math.sqrt(2 * a * (limit + theta + omega * T))
+        assert up == pytest.approx(min(max((fastest - omega) / T, -4 * a), 4 * a), abs=1e-6)
+        assert lo == pytest.approx(min(max((slowest - omega) / T, -4 * a), 4 * a), abs=1e-6)
+    # rolling as fast as the upper bound allows, from upright at 1 rad/s: the trunk stops within
+    # 2 % of θ_max and settles on it
+    theta, omega, dt, peak = 0.0, 1.0, 0.002, 0.0
+    for _ in range(1000):
+        omega += bounds(theta, omega)[1] * dt
+        theta += omega * dt
+        peak = max(peak, theta)
+    assert 0.98 * limit < peak < 1.02 * limit
+    assert theta == pytest.approx(limit, abs=2e-3) and abs(omega) < 0.05
+
+
+def test_a_lean_beyond_the_legs_reach_lowers_the_references():
+    """The walker's reference shift for a lean s: Δz = min(0, H(s) − w/2 sin atan(s/(g b²))
+    − g b²), H(s) = H_max − D + sqrt(D² − s²) the CoM height legs of length D reach spanning
+    s, less the far hip's rise when the robot leans that way (w the foot spacing)."""
+    config = load_preset(ROOT / "presets" / "walk_forward.toml")
+    robot = load_robot("talos")
+    spec = robot.spec
+    walker = Walker(config, robot, mass=spec.mass_kg, dt=0.002)
+    D, H_max, dz = spec.leg_length_m, spec.max_com_height_m, GRAVITY * config.dcm.b**2
+    for lean in (0.02, 0.05, 0.15, 0.25, 0.35):
+        shift = walker._lean_height(np.array([0.0, -lean, 0.01]))
+        reach = H_max - D + math.sqrt(D * D - lean * lean)
+        rise = 0.5 * spec.foot_spacing_m * lean / math.hypot(lean, dz)
+        expected = min(0.0, reach - rise - dz)
+        assert shift[1] == -lean
+        assert shift[2] == pytest.approx(0.01 + expected, abs=1e-12)
+    assert walker._lean_height(np.array([0.0, -0.02, 0.0]))[2] == 0.0  # a small lean: no change
+    assert walker._lean_height(np.array([0.0, -0.25, 0.0]))[2] < -0.05  # 20 % of m g on Talos
