@@ -91,8 +91,9 @@ def load_mjcf(rf: RobotFile) -> MjcfSource:
     return MjcfSource(spec=spec, model=model, movable=movable, bodies=bodies)
 
 
-def keyframe_posture(rf: RobotFile, src: MjcfSource) -> dict[str, float]:
-    """Joint angles of the ``<key>`` named ``model.reference_posture`` (without an SRDF)."""
+def keyframe_posture(rf: RobotFile, src: MjcfSource) -> tuple[dict[str, float], np.ndarray | None]:
+    """Joint angles of the ``<key>`` named ``model.reference_posture`` (without an SRDF) and the
+    base orientation of its free joint (quaternion x, y, z, w; None without a free joint)."""
     m = src.model
     keys = [m.key(k).name for k in range(m.nkey)]
     if rf.model.reference_posture not in keys:
@@ -102,11 +103,19 @@ def keyframe_posture(rf: RobotFile, src: MjcfSource) -> dict[str, float]:
             f"{os.path.basename(rf.mjcf_path)}; expected one of {', '.join(keys) or '(none)'}",
         )
     qpos = m.key(rf.model.reference_posture).qpos
-    return {
+    joints = {
         m.joint(j).name: float(qpos[m.jnt_qposadr[j]])
         for j in range(m.njnt)
         if _KIND[int(m.jnt_type[j])] == "revolute"
     }
+    base = None
+    for j in range(m.njnt):
+        if _KIND[int(m.jnt_type[j])] == "free":
+            w, x, y, z = (float(v) for v in qpos[m.jnt_qposadr[j] + 3 : m.jnt_qposadr[j] + 7])
+            norm = math.sqrt(w * w + x * x + y * y + z * z)
+            if norm > 1e-9:
+                base = np.array([x, y, z, w]) / norm
+    return joints, base
 
 
 def legs(rf: RobotFile, src: MjcfSource) -> dict[str, tuple[str, ...]]:

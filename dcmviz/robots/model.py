@@ -129,14 +129,15 @@ def _actuated(rf: RobotFile, src: _Source) -> set[str]:
     return actuated
 
 
-def _reference_posture(rf: RobotFile, src: _Source) -> dict[str, float]:
-    """Joint angles of the reference posture (SRDF group state or MJCF key) with ``posture``."""
+def _reference_posture(rf: RobotFile, src: _Source) -> tuple[dict[str, float], np.ndarray | None]:
+    """Joint angles of the reference posture (SRDF group state or MJCF key) with ``posture``,
+    and the base orientation it gives (quaternion x, y, z, w; None if it gives none)."""
     if src.kind == "MJCF" and rf.srdf_path is None and rf.model.reference_posture is not None:
         from dcmviz.robots import mjcf
 
-        nominal = mjcf.keyframe_posture(rf, src.document)
+        nominal, base = mjcf.keyframe_posture(rf, src.document)
     else:
-        nominal = srdf_state(rf)
+        nominal, base = srdf_state(rf)
     for name in rf.posture:
         if name not in src.movable:
             raise _err(
@@ -145,7 +146,7 @@ def _reference_posture(rf: RobotFile, src: _Source) -> dict[str, float]:
                 f"of {_suggest(sorted(src.movable), ('hip', 'knee', 'ankle'))}",
             )
     nominal.update(rf.posture)
-    return nominal
+    return nominal, base
 
 
 def _edited_model(rf: RobotFile, src: _Source, actuated: set[str], nominal: dict[str, float]):
@@ -195,14 +196,14 @@ def build_from_file(rf: RobotFile) -> RobotModel:
 
     src = _read_source(rf)
     actuated = _actuated(rf, src)
-    nominal = _reference_posture(rf, src)
+    nominal, base = _reference_posture(rf, src)
     text, pm, locked, sole_parent = _edited_model(rf, src, actuated, nominal)
     joint_names = tuple(pm.names[2:])
     if set(joint_names) != actuated:  # pragma: no cover - the edit keeps exactly these
         raise _err(rf, f"joints: unexpected actuated joints {joint_names}")
     sole_frames = {s: pm.getFrameId(f"{s}_sole_link") for s in SIDES}
     limits = _limits(rf, pm, joint_names)
-    q = standing_posture(rf, pm, joint_names, nominal, sole_frames)
+    q = standing_posture(rf, pm, joint_names, nominal, sole_frames, base)
     mass = float(pin.computeTotalMass(pm))
     armature = rf.actuators.armature
     armature = ARMATURE_PER_KG * mass if armature is None else armature

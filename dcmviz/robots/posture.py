@@ -96,13 +96,23 @@ def posture_problem(model, data, q, sole_frames, limits, names, mass) -> str:
     return ""
 
 
-def standing_posture(rf: RobotFile, model, joint_names, nominal, sole_frames) -> np.ndarray:
-    """Pinocchio q of the nominal standing posture: the reference posture's joint angles, soles
-    flat on z = 0 and centred at x = 0, the CoM above their middle (and at
-    ``standing.com_height_m`` if the file asks for it)."""
+FACING_TOLERANCE_DEG = 45.0  # a sole frame's x axis within this of the walking direction
+MAX_SOLE_TILT_DEG = 15.0  # a reference posture's soles tilted more are a wrong sole frame
+
+
+def standing_posture(
+    rf: RobotFile, model, joint_names, nominal, sole_frames, base_xyzw: np.ndarray | None = None
+) -> np.ndarray:
+    """Pinocchio q of the nominal standing posture: the reference posture's joint angles and base
+    orientation (``base_xyzw``, e.g. an SRDF ``root_joint``), the robot turned about z to face +x
+    (its left foot on +y), soles flat on z = 0 and centred at x = 0, the CoM above their middle
+    (and at ``standing.com_height_m`` if the file asks for it).  A file whose sole frames do not
+    point the way the robot faces (mirrored feet, a sole link turned round) is refused."""
     import pinocchio as pin
 
     q = pin.neutral(model)
+    if base_xyzw is not None:
+        q[3:7] = base_xyzw
     for i, j in enumerate(joint_names):
         q[7 + i] = nominal.get(j, 0.0)
     data = model.createData()
@@ -112,19 +122,36 @@ def standing_posture(rf: RobotFile, model, joint_names, nominal, sole_frames) ->
         s: math.degrees(math.acos(min(1.0, data.oMf[f].rotation[2, 2])))
         for s, f in sole_frames.items()
     }
-    if abs(z["left"] - z["right"]) > 0.005 or max(tilt.values()) > 3.0:
+    if abs(z["left"] - z["right"]) > 0.005 or max(tilt.values()) > MAX_SOLE_TILT_DEG:
         raise _err(
             rf,
             f"feet: the soles do not touch the ground together in the posture (left sole at "
             f"z = {z['left']:.3f} m tilted {tilt['left']:.1f}°, right at z = {z['right']:.3f} m "
-            f"tilted {tilt['right']:.1f}°); expected both flat (≤ 3°) at the same height "
-            "(± 5 mm): check feet.<side>.link/offset and the posture",
+            f"tilted {tilt['right']:.1f}°); expected both about flat (≤ {MAX_SOLE_TILT_DEG:.0f}°) "
+            "at the same height (± 5 mm): check feet.<side>.link/offset and the posture"
+            + ("" if base_xyzw is None else " (the base as the reference posture turns it)"),
         )
+    q = _facing_forward(rf, model, data, q, sole_frames)
+    pin.framesForwardKinematics(model, data, q)
     sole_z = np.mean([data.oMf[f].translation[2] for f in sole_frames.values()])
     sole_x = np.mean([data.oMf[f].translation[0] for f in sole_frames.values()])
     q[0] -= sole_x  # sole centres at x = 0
-    q[2] = -sole_z  # soles on the floor
-    q, residual = solve_posture(model, q, sole_frames)
+    q[2] -= sole_z  # soles on the floor
+    # the soles flat on the floor where they stand (yaw kept), the CoM above their middle
+    pin.framesForwardKinematics(model, data, q)
+    flat = {}
+    for s, f in sole_frames.items():
+        placement = data.oMf[f]
+        x_axis = placement.rotation[:, 0]
+        yaw = math.atan2(x_axis[1], x_axis[0])
+        flat[s] = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw), placement.translation.copy())
+    q, residual = solve_posture(model, q, sole_frames, targets=flat, iterations=50)
+    if residual > 1e-6:
+        raise _err(
+            rf,
+            f"feet: no posture near the reference one stands on both soles flat (residual "
+            f"{residual:.2g}); expected a reference posture with the soles about flat",
+        )
     if rf.standing.com_height_m is not None:
         q, residual = solve_posture(model, q, sole_frames, rf.standing.com_height_m)
         if residual > 1e-6:
@@ -133,5 +160,42 @@ def standing_posture(rf: RobotFile, model, joint_names, nominal, sole_frames) ->
                 f"standing.com_height_m = {rf.standing.com_height_m}: no standing posture with "
                 f"the CoM that high above the soles (residual {residual:.2g}); expected a height "
                 "the legs reach with bent knees",
+            )
+    return q
+
+
+def _facing_forward(rf: RobotFile, model, data, q: np.ndarray, sole_frames) -> np.ndarray:
+    """``q`` turned about the vertical so that the robot faces +x: its left sole on +y of its
+    right one (a robot whose base frame points backwards, iCub's say, turns by π).  Then each
+    sole frame's x axis must point forwards; one that does not means mirrored feet (feet.left on
+    the right leg) or a sole link turned round."""
+    import pinocchio as pin
+
+    left, right = (data.oMf[sole_frames[s]].translation for s in ("left", "right"))
+    across = left[:2] - right[:2]
+    if float(np.linalg.norm(across)) < 1e-3:
+        raise _err(
+            rf,
+            "feet: the left and right soles stand on the same spot in the posture; expected "
+            "feet.left.link and feet.right.link on the two legs",
+        )
+    heading = math.atan2(-across[0], across[1])  # forward = left-to-right axis turned by −90°
+    if abs(heading) > 1e-9:
+        turn = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, -heading), np.zeros(3))
+        base = pin.XYZQUATToSE3(q[:7])
+        q = q.copy()
+        q[:7] = pin.SE3ToXYZQUAT(turn * base)
+        pin.framesForwardKinematics(model, data, q)
+    for side, frame in sole_frames.items():
+        x_axis = data.oMf[frame].rotation[:2, 0]
+        off = math.degrees(math.atan2(x_axis[1], x_axis[0]))
+        if abs(off) > FACING_TOLERANCE_DEG:
+            raise _err(
+                rf,
+                f"feet.{side}.link = {getattr(rf.feet, side).link!r}: its sole frame's x axis "
+                f"points {off:+.0f}° from the way the robot faces (its left foot on its left, "
+                f"{'turned by ' + format(math.degrees(-heading), '+.0f') + '° to face +x' if abs(heading) > 1e-9 else 'facing +x'}); "
+                "expected each sole frame with x forward and z up: are feet.left and feet.right "
+                "swapped (mirrored), or is the sole link turned round?",
             )
     return q

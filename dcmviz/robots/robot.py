@@ -11,6 +11,7 @@ This is the only place a robot is looked up by name; the session loads it and ha
 from __future__ import annotations
 
 import functools
+import math
 import threading
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -64,6 +65,17 @@ class Robot:
             data.oMf[self.sole_frames["left"]].translation[1]
             - data.oMf[self.sole_frames["right"]].translation[1]
         )
+        # the base's orientation standing, relative to the feet's mean yaw: identity for a
+        # robot whose base frame is upright and faces forward, a turn of π for one whose base
+        # x axis points backwards (iCub); the whole-body QP holds the base at it
+        yaws = [
+            math.atan2(data.oMf[f].rotation[1, 0], data.oMf[f].rotation[0, 0])
+            for f in self.sole_frames.values()
+        ]
+        feet_yaw = math.atan2(sum(map(math.sin, yaws)), sum(map(math.cos, yaws)))
+        offset = pin.rpy.rpyToMatrix(0.0, 0.0, -feet_yaw) @ data.oMi[1].rotation
+        angle = float(np.linalg.norm(pin.log3(offset)))
+        self.base_offset: np.ndarray | None = None if angle < 1e-9 else offset
         self._lock = threading.Lock()
         self._mujoco: MujocoModel | None = None
         self._visual: RobotVisual | None = None

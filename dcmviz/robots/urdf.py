@@ -25,10 +25,11 @@ from dcmviz.robots.legs import find_legs
 MOVABLE = ("revolute", "continuous", "prismatic")
 
 
-def srdf_state(rf: RobotFile) -> dict[str, float]:
-    """Joint angles of ``model.reference_posture`` in ``model.srdf`` (empty without one)."""
+def srdf_state(rf: RobotFile) -> tuple[dict[str, float], np.ndarray | None]:
+    """Joint angles of ``model.reference_posture`` in ``model.srdf`` (empty without one) and the
+    base orientation its ``root_joint`` gives (quaternion x, y, z, w; None without one)."""
     if rf.srdf_path is None or rf.model.reference_posture is None:
-        return {}
+        return {}, None
     try:
         root = ET.parse(rf.srdf_path).getroot()
     except ET.ParseError as err:
@@ -36,16 +37,63 @@ def srdf_state(rf: RobotFile) -> dict[str, float]:
     states = [s.get("name") for s in root.iter("group_state")]
     for state in root.iter("group_state"):
         if state.get("name") == rf.model.reference_posture:
-            return {
+            joints = {
                 j.get("name"): float(j.get("value"))
                 for j in state.iter("joint")
                 if j.get("name") != "root_joint" and j.get("value") is not None
             }
+            base = None
+            for j in state.iter("joint"):
+                if j.get("name") == "root_joint" and j.get("value") is not None:
+                    base = _root_quaternion(rf, j.get("value"))
+            return joints, base
     raise _err(
         rf,
         f"model.reference_posture = {rf.model.reference_posture!r}: no such <group_state> in "
         f"{os.path.basename(rf.srdf_path)}; expected one of {', '.join(map(str, states)) or '(none)'}",
     )
+
+
+def _root_quaternion(rf: RobotFile, value: str) -> np.ndarray:
+    """The orientation (x, y, z, w) of an SRDF ``root_joint`` value "x y z qx qy qz qw"."""
+    try:
+        numbers = np.array([float(v) for v in value.split()])
+    except ValueError:
+        numbers = np.zeros(0)
+    if numbers.shape != (7,) or not np.all(np.isfinite(numbers)) or not (
+        abs(np.linalg.norm(numbers[3:]) - 1.0) < 1e-3
+    ):
+        raise _err(
+            rf,
+            f"model.srdf: root_joint = {value!r} in <group_state "
+            f"{rf.model.reference_posture!r}>: expected 7 numbers, a position and a unit "
+            "quaternion (x y z qx qy qz qw)",
+        )
+    return numbers[3:] / np.linalg.norm(numbers[3:])
+
+
+POINT_MASS_RADIUS_M = 0.01  # a link given as a point mass (zero inertia) becomes a sphere this big
+
+
+def _regularise_inertia(link: ET.Element) -> None:
+    """A link with mass but a singular inertia (a point mass, as some URDFs give; MuJoCo refuses
+    it) gets the inertia of a solid sphere of POINT_MASS_RADIUS_M added: 2/5 m r² on the
+    diagonal, a few 1e-5 kg m² for a link of some 100 g."""
+    inertial = link.find("inertial")
+    if inertial is None or inertial.find("mass") is None or inertial.find("inertia") is None:
+        return
+    mass = float(inertial.find("mass").get("value", "0"))
+    inertia = inertial.find("inertia")
+    keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+    v = {k: float(inertia.get(k, "0")) for k in keys}
+    matrix = np.array(
+        [[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]], [v["ixz"], v["iyz"], v["izz"]]]
+    )
+    sphere = 0.4 * mass * POINT_MASS_RADIUS_M**2
+    if mass <= 0.0 or float(np.linalg.eigvalsh(matrix).min()) > 1e-3 * sphere:
+        return
+    for k in ("ixx", "iyy", "izz"):
+        inertia.set(k, repr(v[k] + sphere))
 
 
 def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -102,6 +150,7 @@ def edit_urdf(
         for tag in ("visual", "collision"):
             for el in link.findall(tag):
                 link.remove(el)
+        _regularise_inertia(link)
     for tag in ("transmission", "gazebo", "material"):
         for el in root.findall(tag):
             root.remove(el)

@@ -73,7 +73,7 @@ class WholeBodyController:
         self.tasks: list[Task] = [
             ContactForceTask(lay, mass, g.w_force),
             AngularMomentumTask(lay, mass, g.k_angular_momentum, g.w_angular_momentum),
-            BaseOrientationTask(lay, g.kp_base, g.kd_base, g.w_base),
+            BaseOrientationTask(lay, g.kp_base, g.kd_base, g.w_base, robot.base_offset),
             *(
                 FootTask(
                     s,

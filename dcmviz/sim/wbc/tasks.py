@@ -77,10 +77,20 @@ class AngularMomentumTask(Task):
 
 
 class BaseOrientationTask(Task):
-    """ω̇_base = kp log(R_d Rᵀ) - kd ω, R_d = yaw of the mean foot target (base ≡ locked torso)."""
+    """ω̇_base = kp log(R_d Rᵀ) - kd ω, R_d = R_z(mean foot target yaw) R_0 (base ≡ locked
+    torso), R_0 the base's standing orientation relative to the feet (``Robot.base_offset``:
+    None for the identity)."""
 
-    def __init__(self, layout: Layout, kp: float, kd: float, weight: float) -> None:
+    def __init__(
+        self,
+        layout: Layout,
+        kp: float,
+        kd: float,
+        weight: float,
+        base_offset: np.ndarray | None = None,
+    ) -> None:
         self.kp, self.kd, self.weight = kp, kd, weight
+        self.base_offset = base_offset
         self.A = np.zeros((3, layout.nx))
         self.constant_gram = np.zeros((layout.nx, layout.nx))
         self.constant_gram[3:6, 3:6] = np.eye(3)  # A = [0 R 0]: AᵀA = RᵀR = I
@@ -88,7 +98,8 @@ class BaseOrientationTask(Task):
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
         y_l, y_r = cmd.feet["left"].yaw, cmd.feet["right"].yaw
         yaw = math.atan2(math.sin(y_l) + math.sin(y_r), math.cos(y_l) + math.cos(y_r))
-        err = pin.log3(_rot_z(yaw) @ ctx.base_rotation.T)
+        desired = _rot_z(yaw) if self.base_offset is None else _rot_z(yaw) @ self.base_offset
+        err = pin.log3(desired @ ctx.base_rotation.T)
         self.A[:, 3:6] = ctx.base_rotation  # ω_world = R ω_local, ω̇_world = R ω̇_local
         return self.A, self.kp * err - self.kd * ctx.base_omega
 
