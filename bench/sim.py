@@ -62,7 +62,7 @@ def main() -> None:
     config = load_preset(args.preset)
     backend = MujocoBackend(load_robot(config.robot.model))
     state = backend.reset()
-    walker = Walker(config, backend.spec, mass=backend.mass, dt=backend.control_dt)
+    walker = Walker(config, backend.robot, mass=backend.mass, dt=backend.control_dt)
     walker.reset(state)
     duration = args.duration or config.sim.duration
     walker_s = 0.0

@@ -149,13 +149,14 @@ class ControlSection(_Section):
         ge=0.0,
         le=1.0,
     )
-    recovery: Literal["next_step", "multi_step", "multi_step_timing"] = _field(
+    recovery: Literal["next_step", "multi_step", "multi_step_timing", "crossover"] = _field(
         "next_step",
         description=(
             "next_step: the paper's adjustment of the next footstep (eqs. 27–35); multi_step: "
             "the next three footsteps share the DCM error through one QP on the same maps, "
             "bounded by what the CoP can still do; multi_step_timing: the same, and the present "
-            "and next two phases may end earlier or later"
+            "and next two phases may end earlier or later; crossover: the same, and the recovery "
+            "footstep may cross the stance foot (in front or behind) within the robot's reach"
         ),
     )
     observer: bool = _field(True, description="momentum-based disturbance observer, eqs. 42–49")

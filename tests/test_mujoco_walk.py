@@ -66,7 +66,7 @@ def rollout(preset, duration: float | None = None, overrides: list[str] | None =
     config = apply_overrides(config, overrides or [])
     backend = MujocoBackend(load_robot(config.robot.model))
     state = backend.reset()
-    walker = Walker(config, backend.spec, mass=backend.mass, dt=backend.control_dt)
+    walker = Walker(config, backend.robot, mass=backend.mass, dt=backend.control_dt)
     walker.reset(state)
     duration = config.sim.duration if duration is None else duration
     max_err = 0.0
@@ -130,7 +130,7 @@ def _survives_push(impulse_ns: float, step_adjustment: bool) -> bool:
     )
     backend = MujocoBackend(load_robot("talos"))
     state = backend.reset()
-    walker = Walker(config, backend.spec, mass=backend.mass, dt=backend.control_dt)
+    walker = Walker(config, backend.robot, mass=backend.mass, dt=backend.control_dt)
     walker.reset(state)
     t_push, duration = 3.05, 0.2  # single support of step 3: 2.8 s .. 3.5 s
     while state.t < t_push + 3.0:
@@ -201,7 +201,7 @@ def test_fast_presets_walk_at_speed(preset, speed_m_s):
     config = load_preset(PRESETS / preset)
     backend = MujocoBackend(load_robot(config.robot.model))
     state = backend.reset()
-    walker = Walker(config, backend.spec, mass=backend.mass, dt=backend.control_dt)
+    walker = Walker(config, backend.robot, mass=backend.mass, dt=backend.control_dt)
     plan = walker.reset(state)
     start = 0.5 * (state.feet["left"] + state.feet["right"])
     while state.t < plan.t_end + 0.5:

@@ -182,8 +182,9 @@ def test_a_vrp_outside_the_support_keeps_its_lateral_part() -> None:
     from dcmviz.recovery import MultiStepTiming
     from dcmviz.robots.geometry import convex_hull, project_to_polygon, sole_corners
 
-    spec = load_robot("talos").spec
-    strategy = MultiStepTiming(spec, Terrain(), 0.3, 0.005)
+    talos = load_robot("talos")
+    spec = talos.spec
+    strategy = MultiStepTiming(talos, Terrain(), 0.3, 0.005)
     placed = {
         "left": Footstep("left", np.array([0.6, 0.085, 0.0]), 0.0),
         "right": Footstep("right", np.array([0.8, -0.055, 0.0]), 0.0),

@@ -95,7 +95,7 @@ def _urdf_mass(path: str) -> float:
 def _walk(config, duration: float) -> tuple[bool, Walker]:
     backend = MujocoBackend(load_robot(config.robot.model))
     state = backend.reset()
-    walker = Walker(config, backend.spec, mass=backend.mass, dt=backend.control_dt)
+    walker = Walker(config, backend.robot, mass=backend.mass, dt=backend.control_dt)
     walker.reset(state)
     while state.t < duration - 1e-9:
         force = np.zeros(3)

@@ -22,7 +22,8 @@ SHOWN_WARNINGS = 6  # the panel lists this many, then "and n more"
 def plan_warnings(plan: GaitPlan, config: Config) -> tuple[PlanWarning, ...]:
     """check_plan for ``config``'s robot; never raises (a checker bug is not the user's error)."""
     try:
-        return tuple(check_plan(plan, load_robot(config.robot.model).spec, config))
+        robot = load_robot(config.robot.model)
+        return tuple(check_plan(plan, robot.spec, config, lambda: robot.crossover))
     except Exception as err:  # noqa: BLE001
         return (PlanWarning(f"feasibility check failed: {err!r}"),)
 

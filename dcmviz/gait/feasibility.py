@@ -23,6 +23,7 @@ into ``plan.steps``), like waypoints (``plan.waypoints``).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -62,10 +63,16 @@ class PlanWarning:
         return self.message
 
 
-def check_plan(plan: GaitPlan, spec: RobotSpec, config: Config) -> list[PlanWarning]:
+def check_plan(
+    plan: GaitPlan, spec: RobotSpec, config: Config, crossover: Any = None
+) -> list[PlanWarning]:
     """Warnings for everything in ``plan`` outside what ``spec``'s robot can do (empty: feasible).
 
     ``config`` names the settings the plan came from (generated or explicit footsteps, timing).
+    ``crossover``: the robot's :class:`~dcmviz.robots.crossover.CrossoverRegion`, or a callable
+    giving it (asked only for a plan with a footstep across its stance foot): a footstep inside
+    it is a crossed stance, not out of reach, unless the footstep before it crossed too (the
+    legs must uncross first).
     """
     warnings: list[PlanWarning] = []
     problem = spec.height_problem(plan.b)
@@ -75,7 +82,7 @@ def check_plan(plan: GaitPlan, spec: RobotSpec, config: Config) -> list[PlanWarn
         warnings += _height_warnings(plan, spec)
     stances = [plan.stance_for(k) for k in range(len(plan.steps))]
     warnings += _support_warnings(plan, spec, stances)
-    warnings += _step_warnings(plan, spec, config, stances)
+    warnings += _step_warnings(plan, spec, config, stances, crossover)
     return warnings
 
 
@@ -194,7 +201,7 @@ def _explicit(plan: GaitPlan, config: Config) -> bool:
 
 
 def _step_warnings(
-    plan: GaitPlan, spec: RobotSpec, config: Config, stances: list[Footstep]
+    plan: GaitPlan, spec: RobotSpec, config: Config, stances: list[Footstep], crossover: Any = None
 ) -> list[PlanWarning]:
     steps = plan.steps
     if not steps:
@@ -215,15 +222,29 @@ def _step_warnings(
     c, s = np.cos(st_yaw), np.sin(st_yaw)
     dx = c * d[:, 0] + s * d[:, 1]
     lateral = np.array([SIDE_SIGN[step.side] for step in steps]) * (-s * d[:, 0] + c * d[:, 1])
+    across = lateral < spec.min_step_width_m - 1e-9
+    crossed = np.zeros(len(steps), bool)  # a crossed stance the robot can take
+    if across.any() and crossover is not None:
+        region = crossover() if callable(crossover) else crossover
+        for k in np.nonzero(across)[0]:
+            k = int(k)
+            follows = k > 0 and bool(crossed[k - 1])
+            crossed[k] = not follows and region.contains(float(dx[k]), float(lateral[k]), -0.01)
     bad = (
         (np.abs(dx) > spec.max_step_length_m + 1e-9)
         | (lateral > spec.max_step_width_m + 1e-9)
-        | (lateral < spec.min_step_width_m - 1e-9)
+        | (across & ~crossed)
         | (np.abs(d[:, 2]) > spec.max_step_height_m + SINK_TOLERANCE_M)
     )
     for k in np.nonzero(bad)[0]:
         k = int(k)
         problem = reach_problem(spec, stances[k], steps[k])
+        if across[k] and crossover is not None and not problem.startswith("out of"):
+            problem += (
+                " and outside the crossover region"
+                if k == 0 or not crossed[k - 1]
+                else "; the footstep before it crossed: the legs must uncross first"
+            )
         if abs(dx[k]) > spec.max_step_length_m + 1e-9:
             key = "gait.step_length"
         elif abs(d[k, 2]) > spec.max_step_height_m + SINK_TOLERANCE_M:

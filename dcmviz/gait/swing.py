@@ -101,6 +101,76 @@ def _top_over(
     return float(max(max(z0, z1) + SWING_HEIGHT_M, bound.max()))
 
 
+SOLE_CLEARANCE_M = 0.03  # a swing sole passes the stance sole at least this far from it
+DETOUR_SAMPLES = 24  # points of a path checked against the stance sole
+MAX_DETOUR_M = 0.3  # the farthest a swing goes round the stance sole
+
+
+def _bump(s: float) -> tuple[float, float, float]:
+    """B(s) = 64 s³ (1 − s)³ (1 at mid-swing; zero value, rate and acceleration at both ends)
+    with dB/ds and d²B/ds²."""
+    if s <= 0.0 or s >= 1.0:
+        return 0.0, 0.0, 0.0
+    return (
+        64 * s**3 * (1 - s) ** 3,
+        192 * s * s * (1 - s) ** 2 * (1 - 2 * s),
+        192 * s * (1 - s) * (2 - 10 * s + 10 * s * s),
+    )
+
+
+def _gap_to_sole(points: np.ndarray, stance: Footstep, sole: tuple[float, float]) -> np.ndarray:
+    """Per point (n, 2): how far a sole centred there (its axes the stance sole's) lies from the
+    stance sole (m; ≤ 0: they overlap), the larger of the two axes' separations."""
+    c, s = math.cos(stance.yaw), math.sin(stance.yaw)
+    d = points - stance.position[:2]
+    x, y = d[:, 0] * c + d[:, 1] * s, -d[:, 0] * s + d[:, 1] * c
+    return np.maximum(np.abs(x) - sole[0], np.abs(y) - sole[1])
+
+
+def detour(
+    coeffs: np.ndarray, T: float, stance: Footstep, sole: tuple[float, float]
+) -> tuple[float, float]:
+    """The horizontal detour d n (m) that keeps a swing sole on the quintic ``coeffs`` (over
+    [0, T]) SOLE_CLEARANCE_M clear of the ``stance`` sole: none if the quintic does; else round
+    its toe or heel or out to one side (n = ± its x or y axis), the smallest d (1 cm steps, at
+    most MAX_DETOUR_M) that clears it, or no closer than the path's ends are (a target still
+    moving across)."""
+    if sole[0] <= 0.0:
+        return 0.0, 0.0
+    # both ends well to one side of the stance sole (every ordinary step): nothing to go around
+    c, sn = math.cos(stance.yaw), math.sin(stance.yaw)
+    x0, y0 = float(coeffs[0, 0]), float(coeffs[0, 1])
+    x1 = float(sum(coeffs[i, 0] * T**i for i in range(6)))
+    y1 = float(sum(coeffs[i, 1] * T**i for i in range(6)))
+    lat0 = -(x0 - stance.position[0]) * sn + (y0 - stance.position[1]) * c
+    lat1 = -(x1 - stance.position[0]) * sn + (y1 - stance.position[1]) * c
+    if lat0 * lat1 > 0.0 and min(abs(lat0), abs(lat1)) >= sole[1] + SOLE_CLEARANCE_M:
+        return 0.0, 0.0
+    s = np.linspace(0.0, 1.0, DETOUR_SAMPLES + 1)[1:-1]
+    tau = s * T
+    powers = np.stack([tau**i for i in range(6)], axis=1)
+    path = powers @ coeffs[:, :2]
+    gap = _gap_to_sole(path, stance, sole)
+    # no closer than the ends themselves are (a target being moved across may still be near it)
+    ends = _gap_to_sole(np.array([[x0, y0], [x1, y1]]), stance, sole)
+    need = min(SOLE_CLEARANCE_M, float(ends.min()))
+    if gap.min() >= need - 1e-9:
+        return 0.0, 0.0
+    c, sn = math.cos(stance.yaw), math.sin(stance.yaw)
+    bump = 64 * s**3 * (1 - s) ** 3
+    best, best_gap = (0.0, 0.0), float(gap.min())
+    for d in np.arange(0.01, MAX_DETOUR_M + 1e-9, 0.01):
+        # round the toe or the heel, or out to either side: the first to clear at this size
+        for axis in ((c, sn), (-c, -sn), (-sn, c), (sn, -c)):
+            way = (float(d * axis[0]), float(d * axis[1]))
+            clear = float(_gap_to_sole(path + np.outer(bump, way), stance, sole).min())
+            if clear > best_gap:
+                best, best_gap = way, clear
+        if best_gap >= need - 1e-9:
+            break
+    return best
+
+
 @dataclass(frozen=True)
 class SwingTrajectory:
     """A swing foot path from lift-off to touchdown: C² in time, re-targetable mid-swing.
@@ -126,6 +196,11 @@ class SwingTrajectory:
     t_seg: float = 0.0  # start time of the current horizontal segment
     coeffs: np.ndarray | None = None  # (6, 3): x, y, yaw quintic from t_seg to t_touch
     top: float | None = None  # m, plateau height over terrain (None: the bump of flat ground)
+    # around the stance foot (a crossing step): the sole and the leg to keep clear of, and the
+    # horizontal detour d · 64 s³(1 − s)³ n added to the quintic over its segment
+    stance: Footstep | None = None
+    sole: tuple[float, float] = (0.0, 0.0)  # length, width of the soles (m)
+    detour: tuple[float, float] = (0.0, 0.0)  # d n (m, world x-y); zero on most steps
 
     @staticmethod
     def between(
@@ -136,9 +211,12 @@ class SwingTrajectory:
         clearance: float = SWING_HEIGHT_M,
         terrain: Terrain | None = None,
         sole: tuple[float, float] = (0.0, 0.0),
+        stance: Footstep | None = None,
     ) -> SwingTrajectory:
         """The path from ``lift`` to ``touch``; over a ``terrain`` its apex is raised until the
-        sole (``sole`` = length, width, m) passes every edge under it with ``EDGE_CLEARANCE_M``."""
+        sole (``sole`` = length, width, m) passes every edge under it with ``EDGE_CLEARANCE_M``.
+        With ``stance`` (the foot standing while this one swings) the path goes around it
+        where the straight one would not keep clear of it (a crossing step, :func:`detour`)."""
         z0, z1 = float(lift.position[2]), float(touch.position[2])
         height = clearance + 0.5 * abs(z1 - z0)
         top = None
@@ -149,6 +227,7 @@ class SwingTrajectory:
         p0 = np.array([lift.position[0], lift.position[1], lift.yaw])
         p1 = np.array([touch.position[0], touch.position[1], yaw1])
         c = _quintic_coefficients(p0, np.zeros(3), np.zeros(3), p1, t_touch - t_lift)
+        way = detour(c, t_touch - t_lift, stance, sole) if stance is not None else (0.0, 0.0)
         return SwingTrajectory(
             t_lift,
             t_touch,
@@ -160,6 +239,9 @@ class SwingTrajectory:
             t_lift,
             c,
             top,
+            stance,
+            sole,
+            way,
         )
 
     def frozen(self, t: float) -> bool:
@@ -181,6 +263,7 @@ class SwingTrajectory:
         p1 = np.array([target[0], target[1], self.yaw_target])
         c = _quintic_coefficients(p, v, a, p1, self.t_touch - t)
         new_target = np.array([target[0], target[1], self.target[2]])
+        way = detour(c, self.t_touch - t, self.stance, self.sole) if self.stance else (0.0, 0.0)
         return SwingTrajectory(
             self.t_lift,
             self.t_touch,
@@ -192,6 +275,9 @@ class SwingTrajectory:
             t,
             c,
             self.top,
+            self.stance,
+            self.sole,
+            way,
         )
 
     def retime(self, t: float, t_touch: float) -> SwingTrajectory:
@@ -212,9 +298,10 @@ class SwingTrajectory:
         p, v, a = self._horizontal(t)
         p1 = np.array([self.target[0], self.target[1], self.yaw_target])
         c = _quintic_coefficients(p, v, a, p1, t_touch - t)
+        way = detour(c, t_touch - t, self.stance, self.sole) if self.stance else (0.0, 0.0)
         return SwingTrajectory(
             t_lift, t_touch, self.start, self.target, self.yaw_start, self.yaw_target,
-            self.height, t, c, self.top,
+            self.height, t, c, self.top, self.stance, self.sole, way,
         )  # fmt: skip
 
     def _horizontal(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -224,6 +311,13 @@ class SwingTrajectory:
             p.append(c0 + tau * (c1 + tau * (c2 + tau * (c3 + tau * (c4 + tau * c5)))))
             v.append(c1 + tau * (2 * c2 + tau * (3 * c3 + tau * (4 * c4 + tau * 5 * c5))))
             a.append(2 * c2 + tau * (6 * c3 + tau * (12 * c4 + tau * 20 * c5)))
+        if self.detour != (0.0, 0.0) and t < self.t_touch:
+            T = self.t_touch - self.t_seg
+            b, db, ddb = _bump(tau / T)
+            for i in (0, 1):
+                p[i] += self.detour[i] * b
+                v[i] += self.detour[i] * db / T
+                a[i] += self.detour[i] * ddb / (T * T)
         if t >= self.t_touch:
             return np.array(p), np.zeros(3), np.zeros(3)
         return np.array(p), np.array(v), np.array(a)

@@ -18,7 +18,7 @@ import numpy as np
 from dcmviz.gait.plan import ContactState, GaitPlan
 from dcmviz.gait.planner import Planner
 from dcmviz.gait.swing import SwingTrajectory
-from dcmviz.robots.feet import SIDES, Footstep
+from dcmviz.robots.feet import OTHER, SIDES, Footstep
 
 RECORDS_KEPT = 256  # continuous mode: landed footsteps kept (a plan keeps all of its own)
 
@@ -114,7 +114,7 @@ class Walk:
         spec = self.planner.spec
         self.swing = SwingTrajectory.between(
             t_lift, t_touch, lift, step, terrain=self.planner.terrain,
-            sole=(spec.foot_length_m, spec.foot_width_m),
+            sole=(spec.foot_length_m, spec.foot_width_m), stance=self.placed[OTHER[step.side]],
         )  # fmt: skip
         self.swing_step = k
 

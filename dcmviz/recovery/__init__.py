@@ -4,7 +4,8 @@ walker through one interface (:class:`~dcmviz.recovery.base.RecoveryStrategy`).
 * ``next_step`` (:mod:`.next_step`): the paper's step adjustment (§III-A, eqs. 27–35);
 * ``multi_step`` (:mod:`.multi_step`): the next three footsteps share the DCM error through one
   small QP (:mod:`.qp`) bounded by what the CoP can still do;
-* ``multi_step_timing`` (:mod:`.step_timing`): that, and the phase durations re-timed.
+* ``multi_step_timing`` (:mod:`.step_timing`): that, and the phase durations re-timed;
+* ``crossover`` (:mod:`.crossover`): that, and the recovery footstep may cross the stance foot.
 
 A new strategy is a new class here and a new value of ``control.recovery``.
 """
@@ -13,19 +14,20 @@ from __future__ import annotations
 
 from dcmviz.gait.terrain import Terrain
 from dcmviz.recovery.base import NO_ADJUSTMENT, Adjustment, RecoveryStrategy
+from dcmviz.recovery.crossover import Crossover
 from dcmviz.recovery.multi_step import MultiStep
 from dcmviz.recovery.next_step import NextStep
 from dcmviz.recovery.qp import Candidate, Capacity, Solution, least_squares, solve, solve_full
 from dcmviz.recovery.step_timing import MultiStepTiming
-from dcmviz.robots import RobotSpec
+from dcmviz.robots import Robot
 
 STRATEGIES: dict[str, type[RecoveryStrategy]] = {
-    cls.name: cls for cls in (NextStep, MultiStep, MultiStepTiming)
+    cls.name: cls for cls in (NextStep, MultiStep, MultiStepTiming, Crossover)
 }
 
 
 def make_strategy(
-    name: str, spec: RobotSpec, terrain: Terrain, b: float, dt: float
+    name: str, robot: Robot, terrain: Terrain, b: float, dt: float
 ) -> RecoveryStrategy:
     """The strategy of ``control.recovery = name`` for one walk; ValueError naming the allowed
     values otherwise."""
@@ -35,7 +37,7 @@ def make_strategy(
         raise ValueError(
             f"control.recovery = {name!r}: allowed {', '.join(map(repr, STRATEGIES))}"
         ) from None
-    return cls(spec, terrain, b, dt)
+    return cls(robot, terrain, b, dt)
 
 
 __all__ = [
@@ -43,6 +45,7 @@ __all__ = [
     "STRATEGIES",
     "Adjustment",
     "Candidate",
+    "Crossover",
     "Capacity",
     "MultiStep",
     "MultiStepTiming",

@@ -17,7 +17,7 @@ import numpy as np
 from dcmviz.gait.plan import GaitPlan
 from dcmviz.gait.terrain import EDGE_MARGIN_M, Terrain
 from dcmviz.gait.walk import Walk
-from dcmviz.robots import RobotSpec, clamp_to_reach
+from dcmviz.robots import Robot, clamp_to_reach
 from dcmviz.robots.feet import Footstep
 
 
@@ -40,8 +40,9 @@ class RecoveryStrategy(ABC):
 
     name: str = ""
 
-    def __init__(self, spec: RobotSpec, terrain: Terrain, b: float, dt: float) -> None:
-        self.spec, self.terrain, self.b, self.dt = spec, terrain, float(b), float(dt)
+    def __init__(self, robot: Robot, terrain: Terrain, b: float, dt: float) -> None:
+        self.robot, self.spec = robot, robot.spec
+        self.terrain, self.b, self.dt = terrain, float(b), float(dt)
 
     @abstractmethod
     def adjust(

@@ -62,8 +62,10 @@ class MultiStep(RecoveryStrategy):
         k: int,
         xi_error: np.ndarray,
         max_adjustment: float,
+        region: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> tuple[qp.Solution, list[qp.Candidate]]:
-        """The recovery QP for ``plan`` (the walked one or a re-timed candidate) from footstep k."""
+        """The recovery QP for ``plan`` (the walked one or a re-timed candidate) from footstep k;
+        ``region`` (A, b), if given, replaces footstep k's reach box (a crossover)."""
         weights = plan.preview.dcm_weights(local)  # a_j(t) = w(t)·s_j (eqs. 22, 33-35)
         swing = walk.swing
         candidates = []
@@ -76,7 +78,7 @@ class MultiStep(RecoveryStrategy):
                 qp.Candidate(
                     plan.steps[j], 1.0 / plan.adjustment_gain(j),
                     plan.adjustment_instant(j) - t, fixed, self.tread_box(plan.steps[j]),
-                    float(weights @ selection),
+                    float(weights @ selection), region if j == k else None,
                 )
             )  # fmt: skip
         solution = qp.solve_full(

@@ -83,6 +83,9 @@ class Candidate:
     fixed: np.ndarray | None = None  # (2,) Δv of a frozen footstep (not a variable)
     box: tuple[np.ndarray, np.ndarray] | None = None  # (lo, hi) of Δv_xy: e.g. the tread's
     now_leverage: float = 0.0  # a_j(t): ξ_adj change now per metre moved (for ``capacity``)
+    # a convex region A p ≤ b for the footstep in the frame of the one before it (p = (x,
+    # lateral towards its own side)) replacing the reach box: a crossover (dcmviz.robots.crossover)
+    region: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def weights(candidates: list[Candidate], b: float) -> np.ndarray:
@@ -169,10 +172,25 @@ def solve_full(
             if c.fixed is not None:
                 d0 = d0 + c.fixed
             base = axes @ d0
-            for axis, (low, high) in enumerate(
-                ((-spec.max_step_length_m, spec.max_step_length_m),
-                 (spec.min_step_width_m, spec.max_step_width_m))
-            ):  # fmt: skip
+            if c.region is not None:  # the crossover polygon: A (axes (d0 + Δv_i − Δv_prev)) ≤ b
+                normals, bounds = c.region
+                for normal, bound in zip(normals @ axes, bounds - normals @ base, strict=True):
+                    row = np.zeros(nx)
+                    if i in col:
+                        row[col[i] : col[i] + 2] += normal
+                    if previous_col is not None:
+                        row[previous_col : previous_col + 2] -= normal
+                    if row.any():
+                        rows.append(row)
+                        r_lo.append(-_INF)
+                        r_up.append(float(bound))
+                limits = ()
+            else:
+                limits = (
+                    (-spec.max_step_length_m, spec.max_step_length_m),
+                    (spec.min_step_width_m, spec.max_step_width_m),
+                )
+            for axis, (low, high) in enumerate(limits):
                 row = np.zeros(nx)
                 if i in col:
                     row[col[i] : col[i] + 2] += axes[axis]

@@ -37,6 +37,7 @@ class Gains:
     w_qdd_reg: float = 1e-5
     w_wrench_reg: float = 1e-4  # on w / m
     joint_limits: bool = True  # joint ranges as (soft) acceleration bounds in the QP
+    leg_clearance: bool = True  # the legs kept apart (soft; active only when they come close)
     w_joint_limits: float = 1e6  # weight of a joint-range violation (rad/s²) where unavoidable
     joint_limit_horizon: float = 0.05  # s, look-ahead of the joint-range bounds
     joint_limit_margin: float = 0.0  # rad kept from each end of a joint's range

@@ -20,6 +20,12 @@ from dcmviz.robots.feet import SIDES
 from dcmviz.robots.model import RobotModel
 
 SOLE_THICKNESS_M = 0.02  # the sole boxes' height (their top face is the sole frame)
+# the legs as capsules along hip → knee → ankle → sole, radius × the sole's width: they collide
+# with each other only (contype/conaffinity bits 2 and 4; the floor and soles use bit 1), so a
+# crossing leg that touches the stance leg is a contact MuJoCo reports (and resolves)
+LEG_RADIUS_PER_FOOT_WIDTH = 0.5
+LEG_BITS = {"left": (2, 4), "right": (4, 2)}  # (contype, conaffinity)
+MIN_SEGMENT_M = 0.01  # shorter leg segments (joints at one point) get no capsule
 FRICTION = (1.0, 0.005, 0.0001)  # floor and soles: sliding, torsional, rolling
 
 
@@ -79,6 +85,7 @@ class MujocoModel:
             act.biastype = mujoco.mjtBias.mjBIAS_NONE
             act.ctrllimited = True
             act.ctrlrange = [-lim, lim]
+        self._add_leg_capsules(spec, rm, LEG_RADIUS_PER_FOOT_WIDTH * fw)
         self.model: mujoco.MjModel = spec.compile()
         # the uncompiled scene (robot + flat floor); a backend copies it to add terrain
         self.spec: mujoco.MjSpec = spec
@@ -95,6 +102,12 @@ class MujocoModel:
         self.sole_geoms = {s: mm.geom(f"{s}_sole").id for s in SIDES}
         self.floor_geom = mm.geom("floor").id
         self.root_body_name = root_body.name
+        self.leg_geoms = {
+            side: np.array(
+                [g for g in range(mm.ngeom) if mm.geom(g).name.startswith(f"{side}_leg_")]
+            )
+            for side in SIDES
+        }
         # how deep the soles settle into MuJoCo's soft floor contact (set by the first backend)
         self.contact_sink_m: float | None = None
 
@@ -135,6 +148,44 @@ class MujocoModel:
         qvel[3:6] = v[3:6]
         qvel[self.dof_adr] = v[6:]
         return qvel
+
+    def leg_contacts(self, data: mujoco.MjData) -> int:
+        """How many of ``data``'s contacts are between the left and the right leg."""
+        if data.ncon == 0:
+            return 0
+        g1, g2 = data.contact.geom1[: data.ncon], data.contact.geom2[: data.ncon]
+        left, right = self.leg_geoms["left"], self.leg_geoms["right"]
+        return int(np.count_nonzero(
+            (np.isin(g1, left) & np.isin(g2, right)) | (np.isin(g1, right) & np.isin(g2, left))
+        ))  # fmt: skip
+
+    @staticmethod
+    def _add_leg_capsules(spec: mujoco.MjSpec, rm: RobotModel, radius: float) -> None:
+        """Capsules along each leg's joint axes' anchors (hip to ankle) and on to the sole,
+        each in the body of the joint it starts at (the next anchor is fixed in that body)."""
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        data.qpos[:] = 0.0
+        data.qpos[3] = 1.0
+        mujoco.mj_kinematics(model, data)
+        for side in SIDES:
+            ids = [model.joint(j).id for j in rm.legs[side]]
+            points = [data.xanchor[j].copy() for j in ids]
+            points.append(data.xpos[model.body(f"{side}_sole_link").id].copy())
+            contype, conaffinity = LEG_BITS[side]
+            for i, (a, b) in enumerate(zip(points[:-1], points[1:], strict=True)):
+                if float(np.linalg.norm(b - a)) < MIN_SEGMENT_M:
+                    continue
+                body_id = int(model.jnt_bodyid[ids[i]])
+                origin, rotation = data.xpos[body_id], data.xmat[body_id].reshape(3, 3)
+                ends = [rotation.T @ (p - origin) for p in (a, b)]
+                geom = spec.body(model.body(body_id).name).add_geom(
+                    name=f"{side}_leg_{i}", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                    fromto=[*ends[0], *ends[1]], size=[radius, 0.0, 0.0],
+                )  # fmt: skip
+                geom.mass = 0.0
+                geom.contype, geom.conaffinity = contype, conaffinity
+                geom.group = 3  # hidden in viewers that show groups 0-2
 
     def body_above_com_m(self, link: str, q: np.ndarray) -> float:
         """Height (m) of ``link``'s CoM above the robot's CoM at Pinocchio configuration ``q``

@@ -24,6 +24,7 @@ from dcmviz.robots.model import RobotModel, build_from_file
 from dcmviz.robots.spec import RobotSpec
 
 if TYPE_CHECKING:
+    from dcmviz.robots.crossover import CrossoverRegion
     from dcmviz.robots.mujoco_model import MujocoModel
     from dcmviz.robots.visual import RobotVisual
 
@@ -48,6 +49,21 @@ class Robot:
         # whole-body QP gains the robot file sets ([controller]); the rest are Gains' defaults
         self.controller: dict[str, float | bool] = dict(rm.file.controller)
         self.pin_model = pm = pin.Model(rm.pin_model)  # own copy (armature set)
+        # points along each leg's axis as frames (added before any data is made from the model):
+        # the whole-body QP keeps the legs apart with them (dcmviz.sim.wbc.legs)
+        from dcmviz.robots.crossover import leg_sample_points
+
+        self.leg_frames: dict[str, tuple[int, ...]] = {}
+        for side in SIDES:
+            ids = []
+            for k, (joint, point) in enumerate(leg_sample_points(rm, side)):
+                jid = pm.getJointId(joint)
+                frame = pin.Frame(
+                    f"{side}_leg_point_{k}", jid, pm.getFrameId(joint, pin.JOINT),
+                    pin.SE3(np.eye(3), point), pin.OP_FRAME,
+                )  # fmt: skip
+                ids.append(pm.addFrame(frame, False))
+            self.leg_frames[side] = tuple(ids)
         self.joint_names: tuple[str, ...] = rm.joint_names
         self.nq, self.nv, self.nu = pm.nq, pm.nv, pm.nv - 6
         self.sole_frames = {s: pm.getFrameId(f"{s}_sole_link") for s in SIDES}
@@ -79,6 +95,7 @@ class Robot:
         self._lock = threading.Lock()
         self._mujoco: MujocoModel | None = None
         self._visual: RobotVisual | None = None
+        self._crossover: CrossoverRegion | None = None
         self._levers: dict[str, float] = {}
 
     def __repr__(self) -> str:
@@ -103,6 +120,17 @@ class Robot:
 
                 self._visual = RobotVisual(self.name, self.model)
             return self._visual
+
+    @property
+    def crossover(self) -> CrossoverRegion:
+        """Where the swinging foot can land across the stance foot (:mod:`.crossover`), derived
+        from the legs' kinematics on first use (about a second)."""
+        with self._lock:
+            if self._crossover is None:
+                from dcmviz.robots.crossover import derive_region
+
+                self._crossover = derive_region(self.model)
+            return self._crossover
 
     def push_lever_m(self, body: str) -> float:
         """Height (m) above the robot's CoM of the CoM of the body a push acts on (a push target

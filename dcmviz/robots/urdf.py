@@ -60,8 +60,10 @@ def _root_quaternion(rf: RobotFile, value: str) -> np.ndarray:
         numbers = np.array([float(v) for v in value.split()])
     except ValueError:
         numbers = np.zeros(0)
-    if numbers.shape != (7,) or not np.all(np.isfinite(numbers)) or not (
-        abs(np.linalg.norm(numbers[3:]) - 1.0) < 1e-3
+    if (
+        numbers.shape != (7,)
+        or not np.all(np.isfinite(numbers))
+        or not (abs(np.linalg.norm(numbers[3:]) - 1.0) < 1e-3)
     ):
         raise _err(
             rf,
@@ -87,7 +89,11 @@ def _regularise_inertia(link: ET.Element) -> None:
     keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
     v = {k: float(inertia.get(k, "0")) for k in keys}
     matrix = np.array(
-        [[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]], [v["ixz"], v["iyz"], v["izz"]]]
+        [
+            [v["ixx"], v["ixy"], v["ixz"]],
+            [v["ixy"], v["iyy"], v["iyz"]],
+            [v["ixz"], v["iyz"], v["izz"]],
+        ]
     )
     sphere = 0.4 * mass * POINT_MASS_RADIUS_M**2
     if mass <= 0.0 or float(np.linalg.eigvalsh(matrix).min()) > 1e-3 * sphere:

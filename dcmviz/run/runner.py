@@ -72,7 +72,10 @@ def run_session(
     A fall ends the run early and is reported, never raised.
     """
     config = session.config
-    warnings = [str(w) for w in check_plan(session.plan, session.spec, config)]  # the walked plan
+    robot = session.robot
+    warnings = [  # the walked plan; its crossed footsteps are checked against the robot's region
+        str(w) for w in check_plan(session.plan, session.spec, config, lambda: robot.crossover)
+    ]
     log = TickLog()
     unsubscribe = [session.subscribe(log)]
     csv_log = CsvLog(csv_path) if csv_path is not None else None

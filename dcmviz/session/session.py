@@ -136,7 +136,7 @@ class Session:
         state = self.backend.reset()
         version = self.plan_version if getattr(self, "walker", None) else 0
         self.walker = Walker(  # plan versions keep increasing across resets
-            self.config, self.robot.spec, mass=self.backend.mass, dt=self.backend.control_dt,
+            self.config, self.robot, mass=self.backend.mass, dt=self.backend.control_dt,
             terrain=self.terrain, plan_version=version,
         )  # fmt: skip
         self.walker.reset(state)

@@ -35,6 +35,7 @@ class LipBackend:
     def __init__(
         self, robot: Robot, *, control_dt: float = 0.005, terrain: Terrain | None = None
     ) -> None:
+        self.robot = robot
         self.spec: RobotSpec = robot.spec
         self.terrain = terrain if terrain is not None else Terrain()
         self.mass = self.spec.mass_kg

@@ -18,7 +18,7 @@ from dcmviz import GRAVITY
 from dcmviz.config import Config, ControlSection
 from dcmviz.gait import plan_from_config
 from dcmviz.robots import load_robot
-from dcmviz.sweep.bounds import stance_edge_bound
+from dcmviz.sweep.bounds import crossover_bound, stance_edge_bound
 from dcmviz.sweep.cells import Cell, CellOutcome, RolloutEvent, SweepRun
 from dcmviz.sweep.report import ratios
 from dcmviz.sweep.runner import Runner, make_runner
@@ -227,15 +227,19 @@ def envelope(
         "rows": rows,
         "ratios": ratios(rows),
         "stance_edge_bound_ns": stance_edge_bounds(config, settings),
+        "crossover_bound_ns": stance_edge_bounds(config, settings, crossover_bound),
     }
 
 
-def stance_edge_bounds(config: Config, settings: SweepSettings) -> dict[str, float]:
+def stance_edge_bounds(
+    config: Config, settings: SweepSettings, bound=stance_edge_bound
+) -> dict[str, float]:
     """Per direction (°) with a part towards the stance foot, the impulse no strategy without
-    crossing steps can exceed (dcmviz.sweep.bounds)."""
+    crossing steps can exceed (dcmviz.sweep.bounds), or another ``bound`` of that module
+    (``crossover_bound``: with a crossed footstep)."""
     out = {}
     for angle in settings.direction_angles():
-        value = stance_edge_bound(
+        value = bound(
             config,
             settings.step,
             settings.phase,

@@ -105,11 +105,24 @@ def table(result: dict[str, Any]) -> str:
             + ", ".join(f"{float(d):.0f}° {v:.1f}" for d, v in bound)
             + " N·s"
         )
+        crossed = result.get("crossover_bound_ns") or {}
+        if crossed:
+            lines.append(
+                "with a footstep across the stance foot (inside the robot's crossover region, "
+                "landing as early as it may; dcmviz.sweep.bounds) at most: "
+                + ", ".join(
+                    f"{float(d):.0f}° {v:.1f}"
+                    for d, v in sorted(crossed.items(), key=lambda x: float(x[0]))
+                )  # fmt: skip
+                + " N·s"
+            )
         reached_at = {f"{d:.1f}": cells for d, cells in by_dir.items()}
         for d, v in bound:
             if reached := reached_at.get(d):
                 shares = (f"{n} {100 * reached[n]['max_impulse_ns'] / v:.0f} %" for n in names)
-                lines.append(f"  {float(d):.0f}°: " + ", ".join(shares) + " of it")
+                lines.append(
+                    f"  {float(d):.0f}°: " + ", ".join(shares) + " of the stance-edge bound"
+                )
     lines.append(f"{len(rows)} cells in {result['wall_time_s']:.1f} s wall")
     return "\n".join(lines)
 
@@ -147,7 +160,7 @@ def plot_polar(result: dict[str, Any], path: Path) -> None:
     ax = fig.add_subplot(projection="polar")
     styles = {
         "tracking": "o-", "step_adjustment": "s-", "step_adjustment+observer": "^--",
-        "next_step": "s-", "multi_step": "d-", "multi_step_timing": "^-",
+        "next_step": "s-", "multi_step": "d-", "multi_step_timing": "^-", "crossover": "*-",
     }  # fmt: skip
     for name in result["settings"]["controllers"]:
         rows = sorted(

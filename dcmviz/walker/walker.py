@@ -26,19 +26,20 @@ from dcmviz.gait import GaitPlan, Planner
 from dcmviz.gait.terrain import Terrain, terrain_of
 from dcmviz.gait.walk import Walk
 from dcmviz.recovery import NO_ADJUSTMENT, Adjustment, RecoveryStrategy, make_strategy
-from dcmviz.robots import SIDES, RobotSpec
+from dcmviz.robots import SIDES, Robot
 from dcmviz.walker.state import FootTarget, MeasuredState, WalkerCommand, WalkerStatus
 
 E_Z = np.array([0.0, 0.0, 1.0])
 
 
 class Walker:
-    """Backend-independent DCM walking controller (§III) for one preset and one robot."""
+    """Backend-independent DCM walking controller (§III) for one preset and one robot (its
+    planning facts and, for the crossover strategy, its kinematics)."""
 
     def __init__(
         self,
         config: Config,
-        spec: RobotSpec,
+        robot: Robot,
         *,
         mass: float,
         dt: float,
@@ -49,7 +50,8 @@ class Walker:
         where the count of plans starts (a session's walks keep counting)."""
         self.config = config
         self.control: ControlSection = config.control  # gains: may change while walking
-        self.spec = spec
+        self.robot = robot
+        self.spec = spec = robot.spec
         self.terrain = terrain if terrain is not None else terrain_of(config.terrain)
         self.planner = Planner(config.gait, config.dcm, spec, self.terrain)
         self.mass = float(mass)
@@ -81,7 +83,7 @@ class Walker:
         self.control = control
 
     def _strategy(self, control: ControlSection) -> RecoveryStrategy:
-        return make_strategy(control.recovery, self.spec, self.terrain, self.b, self.dt)
+        return make_strategy(control.recovery, self.robot, self.terrain, self.b, self.dt)
 
     # -- lifecycle ------------------------------------------------------------------------------
     def reset(self, state: MeasuredState) -> GaitPlan:

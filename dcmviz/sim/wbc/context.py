@@ -32,6 +32,10 @@ class Context:
     sole_drift: dict[str, np.ndarray] = field(default_factory=dict)  # (6,) J̇ v, classical
     active: dict[str, bool] = field(default_factory=dict)  # wrench variable allowed
     external_moment: np.ndarray = field(default_factory=lambda: np.zeros(3))  # estimate, N m
+    # Pinocchio's model and its data at (q, v) (joints' placements, Jacobians, accelerations at
+    # q̈ = 0): a constraint evaluating frames of its own reads them (dcmviz.sim.wbc.legs)
+    model: object = None
+    data: object = None
 
 
 class Kinematics:
@@ -85,4 +89,6 @@ class Kinematics:
             drift,
             {},
             np.zeros(3),
+            m,
+            d,
         )

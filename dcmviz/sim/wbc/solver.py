@@ -35,6 +35,7 @@ from dcmviz.sim.wbc.constraints import (
 )
 from dcmviz.sim.wbc.context import Context, Kinematics
 from dcmviz.sim.wbc.layout import Layout
+from dcmviz.sim.wbc.legs import LegClearance
 from dcmviz.sim.wbc.tasks import (
     AngularMomentumTask,
     AnkleStops,
@@ -100,6 +101,8 @@ class WholeBodyController:
             self.constraints.append(
                 JointLimits(robot, lay, g.joint_limit_horizon, g.joint_limit_margin)
             )
+        if g.leg_clearance:
+            self.constraints.append(LegClearance(robot, lay))
         nx = lay.nx
         self.n_rows = sum(c.rows for c in self.constraints)
         self._A = np.zeros((self.n_rows, nx))
