@@ -46,6 +46,11 @@ class LegClearance(Constraint):
         radius = LEG_RADIUS_PER_FOOT_WIDTH * robot.foot_width
         self.d_min = 2.0 * radius + MARGIN_M
         self.last_distance = np.inf  # m, the closest pair's distance at the last tick
+        # per-tick buffers: the points (world), their x, y, z differences and the gaps
+        n_left, n_right = len(self.frames["left"]), len(self.frames["right"])
+        self._left = np.zeros((n_left, 3))
+        self._right = np.zeros((n_right, 3))
+        self._dx, self._dy, self._dz, self._gaps = (np.zeros((n_left, n_right)) for _ in range(4))
 
     def compute(
         self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
@@ -53,31 +58,49 @@ class LegClearance(Constraint):
         A[:] = 0.0
         lo[:], up[:] = -INF, INF
         model, data = ctx.model, ctx.data
-        left = np.array([pin.updateFramePlacement(model, data, f).translation
-                         for f in self.frames["left"]])  # fmt: skip
-        right = np.array([pin.updateFramePlacement(model, data, f).translation
-                          for f in self.frames["right"]])  # fmt: skip
-        gaps = np.linalg.norm(left[:, None, :] - right[None, :, :], axis=2)
+        left, right = self._left, self._right
+        for k, f in enumerate(self.frames["left"]):
+            left[k] = pin.updateFramePlacement(model, data, f).translation
+        for k, f in enumerate(self.frames["right"]):
+            right[k] = pin.updateFramePlacement(model, data, f).translation
+        # ‖left_i − right_j‖ of every pair, summed in np.linalg.norm's order, in buffers
+        dx, dy, dz, gaps = self._dx, self._dy, self._dz, self._gaps
+        np.subtract(left[:, 0, None], right[None, :, 0], out=dx)
+        np.subtract(left[:, 1, None], right[None, :, 1], out=dy)
+        np.subtract(left[:, 2, None], right[None, :, 2], out=dz)
+        np.multiply(dx, dx, out=gaps)
+        np.multiply(dy, dy, out=dy)
+        np.multiply(dz, dz, out=dz)
+        gaps += dy
+        gaps += dz
+        np.sqrt(gaps, out=gaps)
         self.last_distance = float(gaps.min())
         if self.last_distance > self.d_min + ACTIVE_M:
             return False
-        order = np.argsort(gaps, axis=None)[: self.rows]
+        order = np.argsort(gaps, axis=None)[: self.rows].tolist()
         nv = self.layout.nv
+        n_right = gaps.shape[1]
         T = HORIZON_S
+        point: dict[int, tuple] = {}  # frame id -> (J linear, velocity, acceleration), this tick
         for row, flat in enumerate(order):
-            i, j = np.unravel_index(flat, gaps.shape)
+            i, j = divmod(flat, n_right)
             d = float(gaps[i, j])
             if d > self.d_min + ACTIVE_M:
                 break
             fa, fb = self.frames["left"][i], self.frames["right"][j]
             n = (left[i] - right[j]) / max(d, 1e-9)
-            Ja = pin.getFrameJacobian(model, data, fa, _LWA)[:3]
-            Jb = pin.getFrameJacobian(model, data, fb, _LWA)[:3]
-            va = pin.getFrameVelocity(model, data, fa, _LWA).linear
-            vb = pin.getFrameVelocity(model, data, fb, _LWA).linear
-            aa = pin.getFrameClassicalAcceleration(model, data, fa, _LWA).linear
-            ab = pin.getFrameClassicalAcceleration(model, data, fb, _LWA).linear
+            Ja, va, aa = point.get(fa) or point.setdefault(fa, _point(model, data, fa))
+            Jb, vb, ab = point.get(fb) or point.setdefault(fb, _point(model, data, fb))
             rate = float(n @ (va - vb))
             A[row, :nv] = n @ (Ja - Jb)
             lo[row] = 2.0 * (self.d_min - d - rate * T) / (T * T) - float(n @ (aa - ab))
         return False
+
+
+def _point(model, data, frame: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A frame's linear Jacobian, velocity and acceleration at q̈ = 0 (world axes)."""
+    return (
+        pin.getFrameJacobian(model, data, frame, _LWA)[:3],
+        pin.getFrameVelocity(model, data, frame, _LWA).linear,
+        pin.getFrameClassicalAcceleration(model, data, frame, _LWA).linear,
+    )
