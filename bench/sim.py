@@ -1,7 +1,8 @@
 """Real-time factor of the Talos default walk (MuJoCo + whole-body QP) and its per-tick split.
 
-    python bench/sim.py [PRESET] [--duration S] [--record PATH | --compare PATH]
+    python bench/sim.py [PRESET ...] [--duration S] [--record PATH | --compare PATH]
 
+Without a preset it runs ``walk_forward`` (Talos) and ``g1_push`` (G1), one after the other.
 Prints the real-time factor of one headless run and how one control tick divides into physics,
 Pinocchio, QP build, QP solve, walker and the rest (µs per tick and share), all from that run,
 and the controller's share (everything but physics) as a multiple of the physics step. The
@@ -35,11 +36,12 @@ from dcmviz.sim.wbc import solver
 from dcmviz.walker import Walker
 
 ROOT = Path(__file__).resolve().parents[1]
+PRESETS = ("walk_forward.toml", "g1_push.toml")  # the presets of issue 23's targets
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("preset", nargs="?", default=str(ROOT / "presets" / "walk_forward.toml"))
+    parser.add_argument("preset", nargs="*", default=[str(ROOT / "presets" / p) for p in PRESETS])
     parser.add_argument("--duration", type=float, default=None, help="s of simulated time")
     parser.add_argument(
         "--clock",
@@ -54,9 +56,19 @@ def main() -> None:
     )
     parser.add_argument("--min-us", type=float, default=5.0, help="--profile: list parts ≥ this")
     args = parser.parse_args()
-    if args.profile:
-        profile(args)
-        return
+    if len(args.preset) > 1 and (args.record or args.compare):
+        parser.error("--record / --compare take one preset")
+    summary = []
+    for preset in args.preset:
+        args1 = argparse.Namespace(**{**vars(args), "preset": preset})
+        summary.append(profile(args1) if args.profile else run(args1))
+        print()
+    for line in summary:
+        print(line)
+
+
+def run(args) -> str:
+    """One headless run with the per-tick split; returns the summary line."""
     clock = time.thread_time if args.clock == "cpu" else time.perf_counter
     mujoco_sim._clock = solver._clock = clock
     config = load_preset(args.preset)
@@ -102,7 +114,13 @@ def main() -> None:
         print(f"{name:<12}{seconds / ticks * 1e6:>10.1f}{seconds / wall:>8.1%}")
     print(f"{'total':<12}{wall / ticks * 1e6:>10.1f}{1:>8.0%}")
     controller = wall - parts["physics"]
-    print(f"controller / physics: {controller / parts['physics']:.2f}x")
+    ratio = controller / parts["physics"]
+    print(f"controller / physics: {ratio:.2f}x")
+    summary = (
+        f"{Path(args.preset).stem}: controller / physics {ratio:.2f}x, real time "
+        f"×{backend.control_dt * ticks / wall:.1f} on one core ({args.clock} time; "
+        f"×{state.t / elapsed:.1f} wall)"
+    )
     if args.record is not None:
         np.savez_compressed(args.record, **{k: np.array(v) for k, v in trace.items()})
         print(f"recorded {ticks} ticks to {args.record}")
@@ -114,9 +132,10 @@ def main() -> None:
         print(
             f"largest difference over {n} ticks: {worst[0]:.3g} ({worst[1]}); ticks match: {same}"
         )
+    return summary
 
 
-def profile(args) -> None:
+def profile(args) -> str:
     """``--profile``: cProfile over whole Session ticks, and Session.step against mj_step."""
     import cProfile
     import pstats
@@ -138,7 +157,9 @@ def profile(args) -> None:
     rows = []
     for (path, line, name), (_, calls, tottime, cumtime, _) in stats.stats.items():
         where = path.split("/dcmviz/", 1)[-1] if "/dcmviz/" in path else Path(path).name
-        rows.append((tottime / ticks * 1e6, cumtime / ticks * 1e6, calls / ticks, where, line, name))
+        rows.append(
+            (tottime / ticks * 1e6, cumtime / ticks * 1e6, calls / ticks, where, line, name)
+        )
     rows.sort(reverse=True)
     print(
         f"{config.robot.model} {Path(args.preset).name}: {ticks} ticks under cProfile, "
@@ -171,11 +192,13 @@ def profile(args) -> None:
         step_s, bare_s = step_s + t1 - t0, bare_s + t2 - t1
         if session.fell:
             break
-    print(
+    line = (
         f"Session.step(): {step_s / n * 1e6:.1f} µs/tick; bare mj_step × {backend.n_substeps}: "
         f"{bare_s / n * 1e6:.1f} µs; controller / physics {(step_s - bare_s) / bare_s:.2f}x, "
         f"real time ×{backend.control_dt / (step_s / n):.1f} on one core"
     )
+    print(line)
+    return f"{Path(args.preset).stem}: {line}"
 
 
 def _apply_pushes(backend: MujocoBackend, pushes, t: float) -> None:
