@@ -51,6 +51,11 @@ class LegClearance(Constraint):
         self._left = np.zeros((n_left, 3))
         self._right = np.zeros((n_right, 3))
         self._dx, self._dy, self._dz, self._gaps = (np.zeros((n_left, n_right)) for _ in range(4))
+        nv = layout.nv  # per row: J_a, J_b (3, nv), v_a, v_b, a_a, a_b (3,)
+        self._rows = (
+            *(np.zeros((ROWS, 3, nv)) for _ in range(2)),
+            *(np.zeros((ROWS, 3)) for _ in range(4)),
+        )
 
     def compute(
         self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
@@ -77,23 +82,30 @@ class LegClearance(Constraint):
         self.last_distance = float(gaps.min())
         if self.last_distance > self.d_min + ACTIVE_M:
             return False
-        order = np.argsort(gaps, axis=None)[: self.rows].tolist()
-        nv = self.layout.nv
-        n_right = gaps.shape[1]
+        order = np.argsort(gaps, axis=None)[: self.rows]
+        closest = gaps.ravel()[order]
+        near = closest <= self.d_min + ACTIVE_M  # a prefix: the gaps are in ascending order
+        order, d = order[near], closest[near]
+        r = order.size  # the closest pairs first: those within reach of d_min, one row each
+        i, j = np.divmod(order, gaps.shape[1])
+        n = (left[i] - right[j]) / np.maximum(d, 1e-9)[:, None]  # unit vectors b → a
+        # each row's two points: Jacobians, velocities, accelerations (each frame read once)
+        Ja, Jb, va, vb, aa, ab = (x[:r] for x in self._rows)
+        point: dict[int, tuple] = {}
+        for row, (k, m) in enumerate(zip(i.tolist(), j.tolist(), strict=True)):
+            fa, fb = self.frames["left"][k], self.frames["right"][m]
+            if fa not in point:
+                point[fa] = _point(model, data, fa)
+            if fb not in point:
+                point[fb] = _point(model, data, fb)
+            Ja[row], va[row], aa[row] = point[fa]
+            Jb[row], vb[row], ab[row] = point[fb]
+        n_row = n[:, None, :]
+        rate = np.matmul(n_row, (va - vb)[:, :, None])[:, 0, 0]  # ḋ
+        drift = np.matmul(n_row, (aa - ab)[:, :, None])[:, 0, 0]  # d̈ at q̈ = 0
         T = HORIZON_S
-        point: dict[int, tuple] = {}  # frame id -> (J linear, velocity, acceleration), this tick
-        for row, flat in enumerate(order):
-            i, j = divmod(flat, n_right)
-            d = float(gaps[i, j])
-            if d > self.d_min + ACTIVE_M:
-                break
-            fa, fb = self.frames["left"][i], self.frames["right"][j]
-            n = (left[i] - right[j]) / max(d, 1e-9)
-            Ja, va, aa = point.get(fa) or point.setdefault(fa, _point(model, data, fa))
-            Jb, vb, ab = point.get(fb) or point.setdefault(fb, _point(model, data, fb))
-            rate = float(n @ (va - vb))
-            A[row, :nv] = n @ (Ja - Jb)
-            lo[row] = 2.0 * (self.d_min - d - rate * T) / (T * T) - float(n @ (aa - ab))
+        A[:r, : self.layout.nv] = np.matmul(n_row, Ja - Jb)[:, 0, :]
+        lo[:r] = 2.0 * (self.d_min - d - rate * T) / (T * T) - drift
         return False
 
 
