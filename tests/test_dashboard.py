@@ -562,10 +562,11 @@ def test_app_warns_when_listening_beyond_loopback() -> None:
 
 
 def test_recovery_dropdown_changes_the_strategy_and_keeps_the_walk(dash: Dashboard) -> None:
-    """Issue 11: the recovery strategy is a dropdown in the Control folder; a change keeps the
-    walk (a [control] change) and the walker uses it from the next tick."""
+    """Issues 11 and 24: the recovery strategy is a dropdown in the Control folder (crossover
+    among the choices); a change keeps the walk (a [control] change) and the walker uses it from
+    the next tick."""
     handle = dash.controls.handles[("control", "recovery")]
-    assert tuple(handle.options) == ("next_step", "multi_step", "multi_step_timing")
+    assert tuple(handle.options) == ("next_step", "multi_step", "multi_step_timing", "crossover")
     assert handle.value == dash.config.control.recovery == "next_step"
     session = dash.loop.session
     for _ in range(200):
@@ -576,6 +577,11 @@ def test_recovery_dropdown_changes_the_strategy_and_keeps_the_walk(dash: Dashboa
     drain(dash)
     assert dash.loop.session is session and session.t == t  # not restarted
     assert session.walker.control.recovery == "multi_step_timing"
+    assert dash.editor.on_field_change("control", "recovery", "crossover")
+    drain(dash)
+    session.step()
+    assert dash.loop.session is session
+    assert type(session.walker.strategy).__name__ == "Crossover"
 
 
 def test_camera_follow_climbs_with_the_ground_not_with_the_gait() -> None:

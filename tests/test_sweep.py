@@ -137,6 +137,8 @@ def test_strategies_side_by_side(tmp_path: Path) -> None:
     bound = result["stance_edge_bound_ns"]["90.0"]
     share = {n: round(100 * v / bound) for n, v in j.items()}
     assert all(v <= 100 for v in share.values())
-    assert "  90°: " + ", ".join(f"{n} {share[n]} %" for n in j) + " of the stance-edge bound" in text
+    assert (
+        "  90°: " + ", ".join(f"{n} {share[n]} %" for n in j) + " of the stance-edge bound" in text
+    )
     paths = write_envelope(result, tmp_path)
     assert paths[2].stat().st_size > 10_000
