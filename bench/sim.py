@@ -1,12 +1,18 @@
 """Real-time factor of the Talos default walk (MuJoCo + whole-body QP) and its per-tick split.
 
-    python bench/sim.py [PRESET] [--duration S] [--record PATH | --compare PATH]
+    python bench/sim.py [PRESET ...] [--duration S] [--record PATH | --compare PATH]
 
+Without a preset it runs ``walk_forward`` (Talos) and ``g1_push`` (G1), one after the other.
 Prints the real-time factor of one headless run and how one control tick divides into physics,
 Pinocchio, QP build, QP solve, walker and the rest (µs per tick and share), all from that run,
 and the controller's share (everything but physics) as a multiple of the physics step. The
 split is in CPU time of the running thread by default (``--clock cpu``), which other processes
 on a shared machine disturb far less than elapsed time (``--clock wall``).
+
+``--profile`` runs the same walk as a :class:`~dcmviz.session.Session` (what the runner, the
+sweeps and the dashboard step) under cProfile and lists every function that costs ≥ 5 µs per
+tick by itself (``--min-us``), grouped by where it lives, then the tick measured from outside:
+``Session.step()`` against bare ``mj_step`` substeps of the same model from the same states.
 
 ``--record PATH`` saves every tick's command (ξ, ξ_ref, ξ_adj, v_ref, v_cmd, forces, foot
 targets), torques, q̈ and contact wrenches to an ``.npz``; ``--compare PATH`` reruns the same
@@ -30,11 +36,12 @@ from dcmviz.sim.wbc import solver
 from dcmviz.walker import Walker
 
 ROOT = Path(__file__).resolve().parents[1]
+PRESETS = ("walk_forward.toml", "g1_push.toml")  # the presets of issue 23's targets
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("preset", nargs="?", default=str(ROOT / "presets" / "walk_forward.toml"))
+    parser.add_argument("preset", nargs="*", default=[str(ROOT / "presets" / p) for p in PRESETS])
     parser.add_argument("--duration", type=float, default=None, help="s of simulated time")
     parser.add_argument(
         "--clock",
@@ -44,7 +51,24 @@ def main() -> None:
     )
     parser.add_argument("--record", type=Path, help="save every tick's outputs to this .npz")
     parser.add_argument("--compare", type=Path, help="compare every tick's outputs with this .npz")
+    parser.add_argument(
+        "--profile", action="store_true", help="per-function cost of a Session tick (cProfile)"
+    )
+    parser.add_argument("--min-us", type=float, default=5.0, help="--profile: list parts ≥ this")
     args = parser.parse_args()
+    if len(args.preset) > 1 and (args.record or args.compare):
+        parser.error("--record / --compare take one preset")
+    summary = []
+    for preset in args.preset:
+        args1 = argparse.Namespace(**{**vars(args), "preset": preset})
+        summary.append(profile(args1) if args.profile else run(args1))
+        print()
+    for line in summary:
+        print(line)
+
+
+def run(args) -> str:
+    """One headless run with the per-tick split; returns the summary line."""
     clock = time.thread_time if args.clock == "cpu" else time.perf_counter
     mujoco_sim._clock = solver._clock = clock
     config = load_preset(args.preset)
@@ -90,7 +114,13 @@ def main() -> None:
         print(f"{name:<12}{seconds / ticks * 1e6:>10.1f}{seconds / wall:>8.1%}")
     print(f"{'total':<12}{wall / ticks * 1e6:>10.1f}{1:>8.0%}")
     controller = wall - parts["physics"]
-    print(f"controller / physics: {controller / parts['physics']:.2f}x")
+    ratio = controller / parts["physics"]
+    print(f"controller / physics: {ratio:.2f}x")
+    summary = (
+        f"{Path(args.preset).stem}: controller / physics {ratio:.2f}x, real time "
+        f"×{backend.control_dt * ticks / wall:.1f} on one core ({args.clock} time; "
+        f"×{state.t / elapsed:.1f} wall)"
+    )
     if args.record is not None:
         np.savez_compressed(args.record, **{k: np.array(v) for k, v in trace.items()})
         print(f"recorded {ticks} ticks to {args.record}")
@@ -102,6 +132,73 @@ def main() -> None:
         print(
             f"largest difference over {n} ticks: {worst[0]:.3g} ({worst[1]}); ticks match: {same}"
         )
+    return summary
+
+
+def profile(args) -> str:
+    """``--profile``: cProfile over whole Session ticks, and Session.step against mj_step."""
+    import cProfile
+    import pstats
+
+    import mujoco
+
+    from dcmviz.session import Session
+
+    config = load_preset(args.preset)
+    duration = args.duration or config.sim.duration
+    session = Session(config, backend="mujoco")
+    profiler = cProfile.Profile(time.thread_time)
+    profiler.enable()
+    session.run(duration)
+    profiler.disable()
+    ticks = session.metrics.ticks
+    stats = pstats.Stats(profiler)
+    total = sum(row[2] for row in stats.stats.values())  # tottime
+    rows = []
+    for (path, line, name), (_, calls, tottime, cumtime, _) in stats.stats.items():
+        where = path.split("/dcmviz/", 1)[-1] if "/dcmviz/" in path else Path(path).name
+        rows.append(
+            (tottime / ticks * 1e6, cumtime / ticks * 1e6, calls / ticks, where, line, name)
+        )
+    rows.sort(reverse=True)
+    print(
+        f"{config.robot.model} {Path(args.preset).name}: {ticks} ticks under cProfile, "
+        f"{total / ticks * 1e6:.0f} µs/tick in all (thread CPU time; cProfile adds ~0.3 µs a call)"
+    )
+    print(f"{'self µs':>8} {'cum µs':>8} {'calls':>6}  function")
+    shown = 0.0
+    for own, cum, calls, where, line, name in rows:
+        if own < args.min_us:
+            break
+        shown += own
+        print(f"{own:8.1f} {cum:8.1f} {calls:6.1f}  {where}:{line} {name}")
+    print(f"{shown:8.1f}          listed ({shown / (total / ticks * 1e6):.0%} of the tick)")
+
+    # from outside: Session.step() against bare mj_step on the same model from the same states
+    session = Session(config, backend="mujoco")
+    backend = session.backend
+    model, data = backend.model, backend.data
+    bare = mujoco.MjData(model)
+    n = min(ticks, round(duration / backend.control_dt))
+    step_s = bare_s = 0.0
+    for _ in range(n):
+        mujoco.mj_copyData(bare, model, data)
+        t0 = time.thread_time()
+        session.step()
+        t1 = time.thread_time()
+        for _ in range(backend.n_substeps):
+            mujoco.mj_step(model, bare)
+        t2 = time.thread_time()
+        step_s, bare_s = step_s + t1 - t0, bare_s + t2 - t1
+        if session.fell:
+            break
+    line = (
+        f"Session.step(): {step_s / n * 1e6:.1f} µs/tick; bare mj_step × {backend.n_substeps}: "
+        f"{bare_s / n * 1e6:.1f} µs; controller / physics {(step_s - bare_s) / bare_s:.2f}x, "
+        f"real time ×{backend.control_dt / (step_s / n):.1f} on one core"
+    )
+    print(line)
+    return f"{Path(args.preset).stem}: {line}"
 
 
 def _apply_pushes(backend: MujocoBackend, pushes, t: float) -> None:

@@ -216,8 +216,9 @@ class Session:
             f = np.array(push.force_at(t))
             if np.any(f):
                 forces[push.body] = forces.get(push.body, np.zeros(3)) + f
-        for body in set(self._applied) | set(forces):
-            self.backend.set_external_force(body, forces.get(body, np.zeros(3)))
+        if forces or self._applied:  # most ticks push nothing and had nothing to clear
+            for body in set(self._applied) | set(forces):
+                self.backend.set_external_force(body, forces.get(body, np.zeros(3)))
         self._applied = forces
         command = self.walker.step(self.last_state)
         self.last_command = command

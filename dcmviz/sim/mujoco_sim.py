@@ -24,6 +24,7 @@ from dcmviz.sim.wbc import Context, ForceObserver, Gains, MomentObserver, WholeB
 from dcmviz.walker.state import FootTarget, MeasuredState, WalkerCommand
 
 TERRAIN_FRICTION = FRICTION  # as the floor's
+_COS_45 = float(np.cos(np.radians(45.0)))  # a fall: the base tilted more than this
 
 # the clock of ``timings``: wall time; bench/sim.py may set CPU time (time.thread_time)
 _clock = time.perf_counter
@@ -107,6 +108,8 @@ class MujocoBackend:
         self._sole_bodies = np.array(
             [self.model.geom_bodyid[self.model.geom(f"{s}_sole").id] for s in SIDES]
         )
+        self._sole_sites = np.array([self.scene.sole_sites[s] for s in SIDES])
+        self._qpos_adr = np.asarray(self.scene.qpos_adr, dtype=np.intp)  # robot_pose's joints
         self.t = 0.0
         self._sink = 0.0
         self.reset()
@@ -265,12 +268,12 @@ class MujocoBackend:
         d = self.data
         if not self.terrain.flat:
             return self._fell_on_terrain()
-        floor = min(d.site_xpos[self.scene.sole_sites[s]][2] for s in SIDES)
+        floor = d.site_xpos[self._sole_sites, 2].min()
         base_z = d.qpos[2] - floor
         nominal = self.robot.q_nominal[2]
         up = d.xmat[1][8]  # cos(tilt) of the root body
         low = d.xpos[self._upper_bodies, 2].min() - floor < 0.08
-        return bool(base_z < 0.55 * nominal or up < np.cos(np.radians(45.0)) or low)
+        return bool(base_z < 0.55 * nominal or up < _COS_45 or low)
 
     def _fell_on_terrain(self) -> bool:
         d = self.data
@@ -279,14 +282,14 @@ class MujocoBackend:
         bodies = d.xpos[self._upper_bodies]
         low = bool(np.any(bodies[:, 2] - self.terrain.height_at(bodies[:, :2]) < 0.08))
         nominal = self.robot.q_nominal[2]
-        return bool(base_z < 0.55 * nominal or up < np.cos(np.radians(45.0)) or low)
+        return bool(base_z < 0.55 * nominal or up < _COS_45 or low)
 
     # --- drawing / recording -------------------------------------------------------------
     def qpos_by_joint(self) -> dict[str, float]:
         """Angle (rad) of every URDF joint: the simulated legs and the locked upper body."""
         angles = dict(self.robot.locked_joints)
-        for joint, adr in zip(self.robot.joint_names, self.scene.qpos_adr, strict=True):
-            angles[joint] = float(self.data.qpos[adr])
+        joints = self.robot.joint_names
+        angles.update(zip(joints, self.data.qpos[self._qpos_adr].tolist(), strict=True))
         return angles
 
     def robot_pose(self) -> RobotPose:

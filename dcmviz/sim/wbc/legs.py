@@ -49,6 +49,16 @@ class LegClearance(Constraint):
         radius = LEG_RADIUS_PER_FOOT_WIDTH * robot.foot_width
         self.d_min = 2.0 * radius + MARGIN_M
         self.last_distance = np.inf  # m, the closest pair's distance at the last tick
+        # per-tick buffers: the points (world), their x, y, z differences and the gaps
+        n_left, n_right = len(self.frames["left"]), len(self.frames["right"])
+        self._left = np.zeros((n_left, 3))
+        self._right = np.zeros((n_right, 3))
+        self._dx, self._dy, self._dz, self._gaps = (np.zeros((n_left, n_right)) for _ in range(4))
+        nv = layout.nv  # per row: J_a, J_b (3, nv), v_a, v_b, a_a, a_b (3,)
+        self._rows = (
+            *(np.zeros((ROWS, 3, nv)) for _ in range(2)),
+            *(np.zeros((ROWS, 3)) for _ in range(4)),
+        )
 
     def compute(
         self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
@@ -59,31 +69,56 @@ class LegClearance(Constraint):
             self.last_distance = np.inf
             return False
         model, data = ctx.model, ctx.data
-        left = np.array([pin.updateFramePlacement(model, data, f).translation
-                         for f in self.frames["left"]])  # fmt: skip
-        right = np.array([pin.updateFramePlacement(model, data, f).translation
-                          for f in self.frames["right"]])  # fmt: skip
-        gaps = np.linalg.norm(left[:, None, :] - right[None, :, :], axis=2)
+        left, right = self._left, self._right
+        for k, f in enumerate(self.frames["left"]):
+            left[k] = pin.updateFramePlacement(model, data, f).translation
+        for k, f in enumerate(self.frames["right"]):
+            right[k] = pin.updateFramePlacement(model, data, f).translation
+        # ‖left_i − right_j‖ of every pair, summed in np.linalg.norm's order, in buffers
+        dx, dy, dz, gaps = self._dx, self._dy, self._dz, self._gaps
+        np.subtract(left[:, 0, None], right[None, :, 0], out=dx)
+        np.subtract(left[:, 1, None], right[None, :, 1], out=dy)
+        np.subtract(left[:, 2, None], right[None, :, 2], out=dz)
+        np.multiply(dx, dx, out=gaps)
+        np.multiply(dy, dy, out=dy)
+        np.multiply(dz, dz, out=dz)
+        gaps += dy
+        gaps += dz
+        np.sqrt(gaps, out=gaps)
         self.last_distance = float(gaps.min())
         if self.last_distance > self.d_min + ACTIVE_M:
             return False
         order = np.argsort(gaps, axis=None)[: self.rows]
-        nv = self.layout.nv
+        closest = gaps.ravel()[order]
+        near = closest <= self.d_min + ACTIVE_M  # a prefix: the gaps are in ascending order
+        order, d = order[near], closest[near]
+        r = order.size  # the closest pairs first: those within reach of d_min, one row each
+        i, j = np.divmod(order, gaps.shape[1])
+        n = (left[i] - right[j]) / np.maximum(d, 1e-9)[:, None]  # unit vectors b → a
+        # each row's two points: Jacobians, velocities, accelerations (each frame read once)
+        Ja, Jb, va, vb, aa, ab = (x[:r] for x in self._rows)
+        point: dict[int, tuple] = {}
+        for row, (k, m) in enumerate(zip(i.tolist(), j.tolist(), strict=True)):
+            fa, fb = self.frames["left"][k], self.frames["right"][m]
+            if fa not in point:
+                point[fa] = _point(model, data, fa)
+            if fb not in point:
+                point[fb] = _point(model, data, fb)
+            Ja[row], va[row], aa[row] = point[fa]
+            Jb[row], vb[row], ab[row] = point[fb]
+        n_row = n[:, None, :]
+        rate = np.matmul(n_row, (va - vb)[:, :, None])[:, 0, 0]  # ḋ
+        drift = np.matmul(n_row, (aa - ab)[:, :, None])[:, 0, 0]  # d̈ at q̈ = 0
         T = HORIZON_S
-        for row, flat in enumerate(order):
-            i, j = np.unravel_index(flat, gaps.shape)
-            d = float(gaps[i, j])
-            if d > self.d_min + ACTIVE_M:
-                break
-            fa, fb = self.frames["left"][i], self.frames["right"][j]
-            n = (left[i] - right[j]) / max(d, 1e-9)
-            Ja = pin.getFrameJacobian(model, data, fa, _LWA)[:3]
-            Jb = pin.getFrameJacobian(model, data, fb, _LWA)[:3]
-            va = pin.getFrameVelocity(model, data, fa, _LWA).linear
-            vb = pin.getFrameVelocity(model, data, fb, _LWA).linear
-            aa = pin.getFrameClassicalAcceleration(model, data, fa, _LWA).linear
-            ab = pin.getFrameClassicalAcceleration(model, data, fb, _LWA).linear
-            rate = float(n @ (va - vb))
-            A[row, :nv] = n @ (Ja - Jb)
-            lo[row] = 2.0 * (self.d_min - d - rate * T) / (T * T) - float(n @ (aa - ab))
+        A[:r, : self.layout.nv] = np.matmul(n_row, Ja - Jb)[:, 0, :]
+        lo[:r] = 2.0 * (self.d_min - d - rate * T) / (T * T) - drift
         return False
+
+
+def _point(model, data, frame: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A frame's linear Jacobian, velocity and acceleration at q̈ = 0 (world axes)."""
+    return (
+        pin.getFrameJacobian(model, data, frame, _LWA)[:3],
+        pin.getFrameVelocity(model, data, frame, _LWA).linear,
+        pin.getFrameClassicalAcceleration(model, data, frame, _LWA).linear,
+    )
