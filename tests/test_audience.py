@@ -241,7 +241,9 @@ def test_tabs_over_the_limit_see_a_full_page_and_are_refused() -> None:
                 await first.recv()
                 n = d.controls.handles[("gait", "n_steps")]
                 return await asyncio.to_thread(
-                    tab, port, [update(uuid_of(n), {"value": 5 if n.value != 5 else 6})],
+                    tab,
+                    port,
+                    [update(uuid_of(n), {"value": 5 if n.value != 5 else 6})],
                     ready=lambda m: any(x["type"] == "GuiModalMessage" for x in m),
                     until=notified("Not sent"),
                 )
