@@ -62,6 +62,11 @@ def main(argv: list[str] | None = None) -> int:
         "tabs without it only watch",
     )  # fmt: skip
     parser.add_argument(
+        "--public-url", default=None,
+        help="the address the room reaches, e.g. https://demo.example.org behind a TLS proxy "
+        "(default: http://HOST:PORT)",
+    )  # fmt: skip
+    parser.add_argument(
         "--max-tabs", type=int, default=50, help="most watching tabs at once (default 50)"
     )
     parser.add_argument(
@@ -70,7 +75,14 @@ def main(argv: list[str] | None = None) -> int:
     )  # fmt: skip
     args = parser.parse_args(argv)
     # (viser and the dashboard load only once the arguments are good)
-    from dcmviz.dashboard.audience import KEY_ENV, check_key, new_key, presenter_url, watch_url
+    from dcmviz.dashboard.audience import (
+        KEY_ENV,
+        base_url,
+        check_key,
+        new_key,
+        presenter_url,
+        watch_url,
+    )  # fmt: skip
 
     path = args.preset if args.preset is not None else DEFAULT_PRESET
     try:
@@ -83,6 +95,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if not 0 < args.port < 65536:
         print(f"app.py: --port {args.port}: must be in 1..65535", file=sys.stderr)
+        return 2
+    if args.public_url is not None and not args.public_url.startswith(("http://", "https://")):
+        print(f"app.py: --public-url {args.public_url}: must start with http:// or https://",
+              file=sys.stderr)  # fmt: skip
         return 2
     if args.max_tabs < 1:
         print(f"app.py: --max-tabs {args.max_tabs}: must be at least 1", file=sys.stderr)
@@ -120,17 +136,17 @@ def main(argv: list[str] | None = None) -> int:
         shown = "localhost" if is_loopback(args.host) else args.host
         print(f"dcmviz dashboard: http://{shown}:{port}  (Ctrl-C to stop)", flush=True)
     else:
-        shown = reachable_name(args.host)
+        base = args.public_url or base_url(reachable_name(args.host), port)
         print(
             f"dcmviz dashboard (Ctrl-C to stop), {args.max_tabs} watching tabs at most", flush=True
         )
         print(
-            f"  presenter (controls; keep it private): {presenter_url(shown, port, key)}",
+            f"  presenter (controls; keep it private): {presenter_url(base, key)}",
             flush=True,
         )
-        print(f"  watch (the room; no controls):          {watch_url(shown, port)}", flush=True)
+        print(f"  watch (the room; no controls):          {watch_url(base)}", flush=True)
         if not is_loopback(args.host):
-            print_qr(watch_url(shown, port))
+            print_qr(watch_url(base))
             print(
                 f"Listening on {args.host}: anyone who can reach port {port} can watch"
                 + (" and push the robot (--audience-push)" if args.audience_push else "")

@@ -133,8 +133,12 @@ def state(d: Dashboard) -> tuple:
 
 
 def test_urls_carry_the_key_only_in_the_websocket_address() -> None:
-    url = presenter_url("10.0.0.5", 8080, KEY)
-    assert url.startswith("http://10.0.0.5:8080/?websocket=ws%3A//10.0.0.5%3A8080/%3Fkey%3D")
+    url = presenter_url("http://10.0.0.5:8080", KEY)
+    assert url == f"http://10.0.0.5:8080/?websocket=ws%3A//10.0.0.5%3A8080/%3Fkey%3D{KEY}"
+    behind_tls = presenter_url("https://demo.example.org/", KEY)
+    assert (
+        behind_tls == f"https://demo.example.org/?websocket=wss%3A//demo.example.org/%3Fkey%3D{KEY}"
+    )
     assert key_of(f"/?key={KEY}") == KEY
     assert key_of("/") is None and key_of("/?key=a&key=b") is None
 

@@ -47,6 +47,7 @@ MIN_KEY_CHARS = 8
 PRESENTER, WATCHER, OVER = "presenter", "watcher", "over the limit"
 # what a watching tab may send: its own camera (viser keeps one per tab; the aim arrow follows it)
 VIEW_ONLY = (_messages.ViewerCameraMessage,)
+WELCOME_DELAY_S = 1.5  # after its view is up, a watching tab is told so (and its panel greyed)
 
 Notify = Callable[[int, str, str], None]  # (client id, title, body)
 
@@ -84,13 +85,21 @@ class _Redact(logging.Filter):
 REDACTED_LOGGERS = ("websockets.server", "websockets.protocol", "websockets", "viser")
 
 
-def watch_url(host: str, port: int) -> str:
-    return f"http://{host}:{port}/"
+def base_url(host: str, port: int) -> str:
+    return f"http://{host}:{port}"
 
 
-def presenter_url(host: str, port: int, key: str) -> str:
-    """The page, told to open its websocket with the key (viser's ``websocket`` parameter)."""
-    return f"http://{host}:{port}/?websocket=" + quote(f"ws://{host}:{port}/?{KEY_PARAM}={key}")
+def watch_url(base: str) -> str:
+    """The page for the room (``base``: ``http(s)://host[:port]``, as the room reaches it)."""
+    return base.rstrip("/") + "/"
+
+
+def presenter_url(base: str, key: str) -> str:
+    """The page, told to open its websocket with the key (viser's ``websocket`` parameter);
+    behind a TLS proxy (an ``https`` base) the websocket is ``wss``."""
+    base = base.rstrip("/")
+    socket_url = "ws" + base.removeprefix("http") + f"/?{KEY_PARAM}={key}"
+    return f"{base}/?websocket=" + quote(socket_url)
 
 
 def key_of(path: str) -> str | None:
@@ -226,16 +235,42 @@ class Audience:
                     f"{self.max_tabs} tabs are already watching (the presenter's `--max-tabs`). "
                     "Close this tab and try again later, or ask the presenter to raise the limit."
                 )
-        elif role == WATCHER and self.keyed:
-            how = (
-                f"Click the robot to push it (one push per {self.push_interval_s:g} s)."
-                if self.audience_push
-                else "Only the presenter can change settings or push the robot."
-            )
+        if role != PRESENTER and self.keyed:
+            self._disable_controls(client)
+            # once more, and the welcome, when the tab has surely drawn its panel: viser replays
+            # the GUI on its own channel, which may still be running when the camera arrives
+            timer = threading.Timer(WELCOME_DELAY_S, self._welcome, (client, role))
+            timer.daemon = True
+            timer.start()
+
+    def _welcome(self, client: viser.ClientHandle, role: str) -> None:
+        self._disable_controls(client)
+        if role != WATCHER or client.client_id not in self.server.get_clients():
+            return
+        how = (
+            f"Click the robot to push it (one push per {self.push_interval_s:g} s)."
+            if self.audience_push
+            else "Only the presenter can change settings or push the robot."
+        )
+        try:
             client.add_notification(
                 "Watching", f"You are watching the presenter's walk. {how}",
                 auto_close_seconds=10.0, color="gray",
             )  # fmt: skip
+        except Exception:  # noqa: BLE001 - a tab that just closed
+            pass
+
+    def _disable_controls(self, client: viser.ClientHandle) -> None:
+        """Every control on this tab greyed out (its own copy of the panel; others keep theirs)."""
+        if client.client_id not in self.server.get_clients():
+            return
+        try:
+            for uuid in list(self.server.gui._gui_input_handle_from_uuid):
+                client._websock_connection.queue_message(
+                    _messages.GuiUpdateMessage(uuid, {"disabled": True})
+                )
+        except Exception:  # noqa: BLE001 - a tab that just closed
+            pass
 
     # -- the filter ------------------------------------------------------------------------------
     async def _filtered(self, client_id: int, message: Any) -> None:
