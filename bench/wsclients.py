@@ -1,6 +1,12 @@
 """Non-rendering dashboard clients: N websocket connections that count what the server sends.
 
     python3 bench/wsclients.py PORT N SECONDS [--warmup S] [--drag UUID LO HI HZ]
+    python3 bench/wsclients.py --room N [--seconds S] [--preset PATH]
+
+``--room N`` (issue 26): starts ``app.py`` with a presenter key in its own process, connects the
+presenter's tab (with the key) and reads the real-time factor its status line shows, first alone
+for S seconds, then with N watching tabs (without the key) connected; prints both, and what each
+watcher receives.  The walk stays at x1 when the two medians agree.
 
 Each connects like a browser tab (viser's subprotocol, a camera message first), skips the
 initial state for ``--warmup`` seconds, then counts frames, bytes and messages (decoded: zstd +
@@ -14,9 +20,14 @@ from __future__ import annotations
 
 import asyncio
 import json
+import re
+import socket
+import statistics
+import subprocess
 import sys
 import time
 from collections import Counter
+from pathlib import Path
 
 import msgspec
 import viser
@@ -142,7 +153,106 @@ async def main(port: int, n: int, seconds: float, warmup_s: float, dragging=None
     )
 
 
-if __name__ == "__main__":
+REAL_TIME = re.compile(r"real-time ×\s*([0-9.]+)")
+ROOT = Path(__file__).resolve().parents[1]
+
+
+async def presenter(url: str, until: float, factors: list[tuple[float, float]]) -> None:
+    """The presenter's tab: records (time, real-time factor) from every status update."""
+    async with websockets.connect(
+        url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None
+    ) as ws:
+        await ws.send(CAMERA)
+        while (now := time.monotonic()) < until:
+            try:
+                frame = await asyncio.wait_for(ws.recv(), timeout=until - now)
+            except TimeoutError:
+                break
+            if isinstance(frame, str):
+                continue
+            for m in decode(frame)[0]:
+                if m.get("type") != "GuiUpdateMessage":
+                    continue
+                if (match := REAL_TIME.search(str(m.get("updates")))) is not None:
+                    factors.append((time.monotonic(), float(match.group(1))))
+
+
+async def watcher(url: str, until: float) -> int:
+    """A watching tab that reads everything it is sent (like a browser) and decodes nothing."""
+    received = 0
+    async with websockets.connect(
+        url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None
+    ) as ws:
+        await ws.send(CAMERA)
+        while (now := time.monotonic()) < until:
+            try:
+                frame = await asyncio.wait_for(ws.recv(), timeout=until - now)
+            except TimeoutError:
+                break
+            received += len(frame)
+    return received
+
+
+async def room_run(port: int, key: str, n: int, seconds: float) -> dict:
+    base = f"ws://127.0.0.1:{port}"
+    factors: list[tuple[float, float]] = []
+    t0 = time.monotonic()
+    warm, alone_end = t0 + 5.0, t0 + 5.0 + seconds
+    end = alone_end + seconds
+    task = asyncio.create_task(presenter(f"{base}/?key={key}", end, factors))
+    await asyncio.sleep(alone_end - time.monotonic())
+    received = await asyncio.gather(*(watcher(base, end) for _ in range(n)))
+    await task
+
+    def median(lo: float, hi: float) -> tuple[float, float, int]:
+        xs = [f for t, f in factors if lo <= t < hi]
+        return (statistics.median(xs), min(xs), len(xs)) if xs else (float("nan"), 0.0, 0)
+
+    alone, crowd = median(warm, alone_end), median(alone_end + 3.0, end)
+    return {
+        "watchers": n, "seconds": seconds,
+        "real_time_alone": {"median": alone[0], "min": alone[1], "samples": alone[2]},
+        "real_time_watched": {"median": crowd[0], "min": crowd[1], "samples": crowd[2]},
+        "ratio": crowd[0] / alone[0] if alone[2] and crowd[2] else float("nan"),
+        "kib_per_s_per_watcher": sum(received) / max(n, 1) / 1024 / seconds,
+    }  # fmt: skip
+
+
+def room(n: int, seconds: float, preset: Path) -> dict:
+    from dcmviz.dashboard.audience import new_key
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    key = new_key()
+    cmd = [sys.executable, str(ROOT / "app.py"), "--host", "127.0.0.1", "--port", str(port),
+           "--key", key, "--max-tabs", str(n + 5), "--preset", str(preset)]  # fmt: skip
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and "watch" not in (proc.stdout.readline() or "watch"):
+            pass
+        return asyncio.run(room_run(port, key, n, seconds))
+    finally:
+        proc.terminate()
+        proc.wait(timeout=20)
+
+
+if __name__ == "__main__" and "--room" in sys.argv:
+    n = int(sys.argv[sys.argv.index("--room") + 1])
+    seconds = float(sys.argv[sys.argv.index("--seconds") + 1]) if "--seconds" in sys.argv else 30.0
+    preset = (
+        Path(sys.argv[sys.argv.index("--preset") + 1])
+        if "--preset" in sys.argv
+        else ROOT / "presets" / "walk_forward.toml"
+    )
+    r = room(n, seconds, preset)
+    a, w = r["real_time_alone"], r["real_time_watched"]
+    print(f"{preset.stem}: real time, presenter alone  x{a['median']:.2f} (min x{a['min']:.2f})")
+    print(f"{preset.stem}: with {n} watching tabs     x{w['median']:.2f} (min x{w['min']:.2f}); "
+          f"ratio {r['ratio']:.2f}; {r['kib_per_s_per_watcher']:.0f} KiB/s to each watcher")  # fmt: skip
+    print(json.dumps(r))
+elif __name__ == "__main__":
     port, n, seconds = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
     warmup = float(sys.argv[sys.argv.index("--warmup") + 1]) if "--warmup" in sys.argv else 3.0
     dragging = None

@@ -30,6 +30,7 @@ from dcmviz import GRAVITY
 from dcmviz.config import MAX_PRESET_BYTES, PRESETS_DOC, Config
 from dcmviz.dashboard import scene
 from dcmviz.dashboard.aim import PushAim
+from dcmviz.dashboard.audience import Audience
 from dcmviz.dashboard.editor import CURRENT, ConfigEditor
 from dcmviz.dashboard.feasibility import FeasibilityPanel, likely_cause
 from dcmviz.dashboard.guard import install_guard
@@ -82,9 +83,17 @@ class Dashboard:
         start: bool = True,
         session_factory: SessionFactory = new_session,
         preset: str = CURRENT,
+        key: str | None = None,
+        max_tabs: int = 50,
+        audience_push: bool = False,
     ) -> None:
         self.server = server
         self.notifier = Notifier(server)
+        # presenter and watchers: in front of the guard (a watcher's message never reaches it)
+        self.audience = Audience(
+            server, key, max_tabs=max_tabs, audience_push=audience_push,
+            notify=self.notifier.notify_client_id,
+        )  # fmt: skip
         install_guard(
             server, notify=self.notifier.notify_client_id, max_upload_bytes=MAX_PRESET_BYTES,
             upload_doc=PRESETS_DOC,
@@ -112,6 +121,7 @@ class Dashboard:
         # each tab's arrow: the force a click on the robot applies from that tab's view
         self.aim = PushAim(server, self.push_panel.click_force)
         self.push_panel.aim = self.aim
+        self.push_panel.who = self.audience.label
         self.push_panel.on_hint(lambda _hint: self.aim.refresh())
         with tabs.add_tab("Presets", viser.Icon.FILE_SETTINGS):
             self.preset_panel = PresetPanel(gui, self.editor, self.notifier, presets_dir, preset)
@@ -267,6 +277,7 @@ class Dashboard:
         self.view.stop()
         self.preview.stop()
         self.loop.stop()
+        self.audience.close()
 
 
 def serve(
@@ -276,7 +287,19 @@ def serve(
     port: int = 8080,
     presets_dir: Path | str = "presets",
     preset: str = CURRENT,
+    key: str | None = None,
+    max_tabs: int = 50,
+    audience_push: bool = False,
 ) -> tuple[viser.ViserServer, Dashboard]:
-    """A viser server on ``host:port`` with the dashboard running ``config`` (from ``preset``)."""
+    """A viser server on ``host:port`` with the dashboard running ``config`` (from ``preset``);
+    with a ``key``, only tabs that connect with it control (:mod:`.audience`)."""
     server = viser.ViserServer(host=host, port=port, label="dcmviz", verbose=False)
-    return server, Dashboard(server, config, presets_dir=presets_dir, preset=preset)
+    try:
+        dashboard = Dashboard(
+            server, config, presets_dir=presets_dir, preset=preset, key=key,
+            max_tabs=max_tabs, audience_push=audience_push,
+        )  # fmt: skip
+    except BaseException:
+        server.stop()
+        raise
+    return server, dashboard

@@ -58,6 +58,8 @@ class PushPanel:
         self.last_push = (-math.inf, "")  # (monotonic time, what the last click pushed)
         self._hint_listeners: list[Callable[[str], None]] = []
         self.aim: PushAim | None = None  # each tab's arrow (the dashboard sets it)
+        # who pushed, for the status line ('' for the presenter; the dashboard's audience)
+        self.who: Callable[[viser.ClientHandle | None], str] = lambda client: ""
         with gui.add_folder("Push"):
             self.gui_push_direction = gui.add_slider(
                 "direction ψ_F [deg]", min=-180.0, max=180.0, step=5.0, initial_value=90.0,
@@ -139,9 +141,11 @@ class PushPanel:
         force = horizontal_force(direction, self.gui_push_magnitude.value)
         ok = self.push(force, body, event.client)
         if ok:  # the status line says it (a pop-up per click would cover the robot)
+            who = self.who(event.client)
             self.last_push = (
                 time.monotonic(),
-                f"pushed {body}: {describe(force)} for {self.gui_push_duration.value:.2f} s",
+                f"{who + ' ' if who else ''}pushed {body}: {describe(force)} "
+                f"for {self.gui_push_duration.value:.2f} s",
             )
         return ok
 
