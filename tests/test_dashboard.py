@@ -539,23 +539,25 @@ def test_robot_view_moves_only_what_moved() -> None:
         server.stop()
 
 
-def test_app_warns_when_listening_beyond_loopback() -> None:
+def test_app_on_loopback_prints_one_url_with_full_control() -> None:
+    """Loopback without --key: one URL, every tab controls (beyond loopback the app prints a
+    presenter and a watch URL: tests/test_audience.py)."""
     import subprocess
     import sys
 
     app = Path(__file__).resolve().parents[1] / "app.py"
     port = free_port()
     proc = subprocess.Popen(
-        [sys.executable, str(app), "--host", "0.0.0.0", "--port", str(port)],
+        [sys.executable, str(app), "--port", str(port)],
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
     )  # fmt: skip
     try:
         line = ""
         deadline = time.time() + 60
-        while "dcmviz dashboard:" not in line and time.time() < deadline:
+        while "dcmviz dashboard" not in line and time.time() < deadline:
             line = proc.stdout.readline()
-        warning = proc.stdout.readline()
-        assert "Anyone who can reach" in warning and "can control the simulation" in warning
+        assert line.startswith(f"dcmviz dashboard: http://localhost:{port}")
+        assert "presenter" not in line and "key" not in line
     finally:
         proc.terminate()
         proc.wait(timeout=10)
