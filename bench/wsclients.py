@@ -157,8 +157,9 @@ REAL_TIME = re.compile(r"real-time ×\s*([0-9.]+)")
 ROOT = Path(__file__).resolve().parents[1]
 
 
-async def presenter(url: str, until: float, factors: list[tuple[float, float]]) -> None:
-    """The presenter's tab: records (time, real-time factor) from every status update."""
+async def frames(url: str, until: float):
+    """A tab's connection (viser's subprotocol, its camera first): the binary frames it is sent
+    until ``until`` (monotonic time)."""
     async with websockets.connect(
         url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None
     ) as ws:
@@ -168,28 +169,25 @@ async def presenter(url: str, until: float, factors: list[tuple[float, float]]) 
                 frame = await asyncio.wait_for(ws.recv(), timeout=until - now)
             except TimeoutError:
                 break
-            if isinstance(frame, str):
+            if not isinstance(frame, str):
+                yield frame
+
+
+async def presenter(url: str, until: float, factors: list[tuple[float, float]]) -> None:
+    """The presenter's tab: records (time, real-time factor) from every status update."""
+    async for frame in frames(url, until):
+        for m in decode(frame)[0]:
+            if m.get("type") != "GuiUpdateMessage":
                 continue
-            for m in decode(frame)[0]:
-                if m.get("type") != "GuiUpdateMessage":
-                    continue
-                if (match := REAL_TIME.search(str(m.get("updates")))) is not None:
-                    factors.append((time.monotonic(), float(match.group(1))))
+            if (match := REAL_TIME.search(str(m.get("updates")))) is not None:
+                factors.append((time.monotonic(), float(match.group(1))))
 
 
 async def watcher(url: str, until: float) -> int:
     """A watching tab that reads everything it is sent (like a browser) and decodes nothing."""
     received = 0
-    async with websockets.connect(
-        url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None
-    ) as ws:
-        await ws.send(CAMERA)
-        while (now := time.monotonic()) < until:
-            try:
-                frame = await asyncio.wait_for(ws.recv(), timeout=until - now)
-            except TimeoutError:
-                break
-            received += len(frame)
+    async for frame in frames(url, until):
+        received += len(frame)
     return received
 
 
