@@ -22,3 +22,15 @@ def wait_for(condition: Callable[[], object], timeout: float = 10.0, dt: float =
             return True
         time.sleep(dt)
     return bool(condition())
+
+
+def rk4(f: Callable, y, h: float, n: int):
+    """``n`` classical Runge-Kutta steps of ``h`` of y' = f(y) from ``y`` (the tests' independent
+    integration of the LIP with its CoP on a sole edge)."""
+    for _ in range(n):
+        k1 = f(y)
+        k2 = f(y + h / 2 * k1)
+        k3 = f(y + h / 2 * k2)
+        k4 = f(y + h * k3)
+        y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return y

@@ -11,6 +11,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from helpers import rk4
 
 from dcmviz.config import Config, load_preset
 from dcmviz.gait import check_plan, plan_from_config
@@ -44,12 +45,7 @@ def test_crossed_edge_impulse_leaves_the_dcm_on_the_crossed_edge() -> None:
             def f(s: np.ndarray, cop: float = cop, force: float = force) -> np.ndarray:
                 return np.array([s[1], (s[0] - cop) / b**2 + force])
 
-            for _ in range(n):
-                k1 = f(y)
-                k2 = f(y + h / 2 * k1)
-                k3 = f(y + h / 2 * k2)
-                k4 = f(y + h * k3)
-                y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            y = rk4(f, y, h, n)
         return y[0] + b * y[1]
 
     for touchdown in (0.12, 0.35):

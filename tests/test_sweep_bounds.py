@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+from helpers import rk4
 
 from dcmviz.config import Config, load_preset
 from dcmviz.gait import plan_from_config
@@ -26,12 +27,7 @@ def test_edge_impulse_leaves_the_dcm_on_the_edge() -> None:
         h = T / n
         y = np.array([0.0, 0.0])  # x, ẋ with ξ_0 = 0; the edge at d
         f = lambda s: np.array([s[1], (s[0] - d) / b**2 + F / m])  # noqa: E731
-        for _ in range(n):
-            k1 = f(y)
-            k2 = f(y + h / 2 * k1)
-            k3 = f(y + h / 2 * k2)
-            k4 = f(y + h * k3)
-            y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        y = rk4(f, y, h, n)
         return y[0] + b * y[1]
 
     J = edge_impulse(d, m, b, T)
