@@ -2,7 +2,24 @@
 record every shell reads (:mod:`.tick`) with the names and colours of its signals
 (:mod:`.signals`)."""
 
-from dcmviz.session.session import HISTORY, HISTORY_KEYS, Metrics, Session, make_backend
-from dcmviz.session.tick import AppliedPush, Tick
+from dcmviz.session.session import (
+    HISTORY,
+    HISTORY_KEYS,
+    Metrics,
+    Session,
+    SessionState,
+    make_backend,
+)
+from dcmviz.session.tick import AppliedPush, Pull, Tick
 
-__all__ = ["HISTORY", "HISTORY_KEYS", "AppliedPush", "Metrics", "Session", "Tick", "make_backend"]
+__all__ = [
+    "HISTORY",
+    "HISTORY_KEYS",
+    "AppliedPush",
+    "Metrics",
+    "Pull",
+    "Session",
+    "SessionState",
+    "Tick",
+    "make_backend",
+]

@@ -11,10 +11,12 @@ others read ticks or post commands through the dashboard's loop.
 
 from __future__ import annotations
 
+import copy
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -22,7 +24,7 @@ from dcmviz.config import Config, Push
 from dcmviz.gait import GaitPlan
 from dcmviz.gait.terrain import Terrain, terrain_of
 from dcmviz.robots import Robot, RobotSpec, load_robot
-from dcmviz.session.tick import AppliedPush, Tick
+from dcmviz.session.tick import AppliedPush, Pull, Tick
 from dcmviz.sim.backend import Backend
 from dcmviz.walker import MeasuredState, Walker, WalkerCommand
 
@@ -32,6 +34,7 @@ REALISED_IN_TICK = 64  # latest landed footsteps a Tick carries (its cost must n
 HISTORY = 4000  # samples kept for live plots (ring buffer)
 PUSHES_KEPT = 256  # pushes remembered (an endless walk pushed every few seconds keeps its latest)
 HISTORY_KEYS = ("t", "xi", "xi_ref", "xi_adj", "v_cmd", "v_ref", "com", "f_ext", "f_hat")
+PULL_MAX_N = 5000.0  # a spring pull is capped like a preset push's force
 
 
 def make_backend(
@@ -54,6 +57,24 @@ def make_backend(
 
         return MujocoBackend(robot, terrain=terrain)
     raise ValueError(f"sim.backend = {name!r}: allowed 'mujoco' or 'lip'")
+
+
+@dataclass(frozen=True)
+class SessionState:
+    """A session after one tick, everything it needs to continue from there exactly
+    (:meth:`Session.save_state`, :meth:`Session.restore_state`).  Opaque to shells."""
+
+    config: Config
+    backend: Any  # the backend's own state (get_state)
+    owner: int  # id of the backend it came from: a state restores into that backend only
+    walker: Walker  # a private copy
+    last_state: MeasuredState
+    last_command: WalkerCommand | None
+    pushes: tuple[Push, ...]
+    pending: tuple[Push, ...]
+    applied: dict[str, np.ndarray]
+    metrics: Metrics
+    ticks: int
 
 
 @dataclass
@@ -154,6 +175,8 @@ class Session:
         self._applied: dict[str, np.ndarray] = {}
         self._records_seen: tuple | None = None
         self._records_recent: tuple = ()
+        self._pull: Pull | None = None
+        self._pull_last: np.ndarray | None = None  # the pulled body's point at the last tick
 
     # -- commands -------------------------------------------------------------------------------
     def push(
@@ -183,6 +206,51 @@ class Session:
         self._pending.append(push)
         return push
 
+    def pull(self, body: str, target, stiffness: float, damping: float = 0.0, grab=None) -> Pull:
+        """Pull ``body`` towards ``target`` (m, world) with a spring of ``stiffness`` N/m and
+        ``damping`` N·s/m from the next tick on (MuJoCo's viewer's perturbation): each tick the
+        body is pushed with k (target − p) − c ṗ (at most PULL_MAX_N), p the point ``grab``
+        (m, world, now; default the body's origin) moving with the body.  Calling it again
+        moves the target (and keeps the grab point unless given); :meth:`release` lets go."""
+        spec = self.robot.spec
+        if body not in spec.bodies:
+            raise ValueError(
+                f"body = {body!r}: unknown for {spec.name}; allowed: {', '.join(spec.bodies)}"
+            )
+        target = np.array(target, float)
+        if target.shape != (3,) or not np.all(np.isfinite(target)):
+            raise ValueError(f"target = {target!r}: must be 3 finite numbers (m)")
+        if not (math.isfinite(stiffness) and stiffness > 0.0):
+            raise ValueError(f"stiffness = {stiffness!r}: must be > 0 N/m")
+        if not (math.isfinite(damping) and damping >= 0.0):
+            raise ValueError(f"damping = {damping!r}: must be ≥ 0 N·s/m")
+        if self._pull is None or self._pull.body != body:
+            self._pull_last = None
+            offset = np.zeros(3)
+        else:
+            offset = self._pull.offset
+        if grab is not None:
+            grab = np.array(grab, float)
+            if grab.shape != (3,) or not np.all(np.isfinite(grab)):
+                raise ValueError(f"grab = {grab!r}: must be 3 finite numbers (m)")
+            offset = grab - np.array(self.backend.body_position(body), float)
+        self._pull = Pull(body, target, float(stiffness), float(damping), offset)
+        return self._pull
+
+    def release(self) -> None:
+        """End a spring pull (:meth:`pull`)."""
+        self._pull = None
+        self._pull_last = None
+
+    def _pull_force(self, dt: float) -> np.ndarray:
+        pull = self._pull
+        p = np.array(self.backend.body_position(pull.body), float) + pull.offset
+        v = np.zeros(3) if self._pull_last is None else (p - self._pull_last) / dt
+        self._pull_last = p
+        f = pull.stiffness * (pull.target - p) - pull.damping * v
+        n = float(np.linalg.norm(f))
+        return f * (PULL_MAX_N / n) if n > PULL_MAX_N else f
+
     @property
     def t(self) -> float:
         return self.last_state.t
@@ -208,14 +276,25 @@ class Session:
     # -- the loop -------------------------------------------------------------------------------
     def step(self) -> WalkerCommand:
         """One control tick: pushes → walker → backend → metrics."""
+        return self._step(None, notify=True)
+
+    def _step(self, given: Mapping[str, np.ndarray] | None, notify: bool) -> WalkerCommand:
         t = self.last_state.t
         forces: dict[str, np.ndarray] = {}
-        if self._pending and any(t >= p.start + p.duration for p in self._pending):
-            self._pending = [p for p in self._pending if t < p.start + p.duration]
-        for push in self._pending:
-            f = np.array(push.force_at(t))
-            if np.any(f):
-                forces[push.body] = forces.get(push.body, np.zeros(3)) + f
+        if given is not None:  # a replay: the forces recorded for this tick
+            forces = {b: np.array(f, float) for b, f in given.items()}
+        else:
+            if self._pending and any(t >= p.start + p.duration for p in self._pending):
+                self._pending = [p for p in self._pending if t < p.start + p.duration]
+            for push in self._pending:
+                f = np.array(push.force_at(t))
+                if np.any(f):
+                    forces[push.body] = forces.get(push.body, np.zeros(3)) + f
+            if self._pull is not None:
+                body = self._pull.body
+                forces[body] = forces.get(body, np.zeros(3)) + self._pull_force(
+                    self.backend.control_dt
+                )
         if forces or self._applied:  # most ticks push nothing and had nothing to clear
             for body in set(self._applied) | set(forces):
                 self.backend.set_external_force(body, forces.get(body, np.zeros(3)))
@@ -229,7 +308,7 @@ class Session:
         self._record(command, forces)  # after the fall check: a fall's tick is not a tracking error
         self._ticks += 1
         self._tick = None
-        if self._subscribers:
+        if notify and self._subscribers:
             tick = self.tick()
             for subscriber in list(self._subscribers):
                 subscriber(tick)
@@ -267,6 +346,12 @@ class Session:
         adjusted_step = recovery_step = None
         if adjusted is not None and 0 <= adjusted[0] < len(plan.steps):
             adjusted_step = plan.steps[adjusted[0]].moved(np.array(adjusted[1], float))
+        contacts = tuple(backend.contacts()) if hasattr(backend, "contacts") else ()
+        cop = None
+        if contacts:
+            weight = np.array([max(float(f[2]), 0.0) for _, f in contacts])
+            points = np.array([p for p, _ in contacts])
+            cop = weight @ points / weight.sum() if weight.sum() > 1e-9 else None
         second = status.following
         if second is not None and 0 <= second[0] < len(plan.steps):
             nominal = plan.steps[second[0]]
@@ -294,6 +379,10 @@ class Session:
             pose=backend.robot_pose(),
             fell=self.metrics.fell,
             done=bool(cmd.done),
+            contacts=contacts,
+            cop=cop,
+            physics=backend.physics_state() if hasattr(backend, "physics_state") else None,
+            pull=self._pull,
         )
 
     def _recent(self, records: tuple) -> tuple:
@@ -339,6 +428,52 @@ class Session:
         out = {k: v[idx].copy() for k, v in self._history.items()}
         out["dcm_error"] = np.linalg.norm(out["xi"] - out["xi_ref"], axis=1) if n else np.zeros(0)
         return out
+
+    # -- resuming from a tick -------------------------------------------------------------------
+    def save_state(self) -> SessionState:
+        """The session after its last tick, to continue from there later (:meth:`restore_state`):
+        the backend's state, a copy of the walker, the pushes and the metrics.  A spring pull
+        is not part of it (it is the user's hand, not the walk)."""
+        return SessionState(
+            config=self.config, backend=self.backend.get_state(), owner=id(self.backend),
+            walker=self.walker.copy(), last_state=self.last_state,
+            last_command=self.last_command, pushes=tuple(self.pushes),
+            pending=tuple(self._pending),
+            applied={b: f.copy() for b, f in self._applied.items()},
+            metrics=copy.copy(self.metrics), ticks=self._ticks,
+        )  # fmt: skip
+
+    def restore_state(self, state: SessionState) -> None:
+        """Continue from ``state`` (saved by this session with the same backend): the next
+        :meth:`step` is the one that followed it.  The recorded history restarts there."""
+        if state.owner != id(self.backend):
+            raise ValueError(
+                "state: saved with another backend (the robot, terrain or backend changed "
+                "since); it restores only into the backend it came from"
+            )
+        self.last_state = self.backend.set_state(state.backend)
+        self.config = state.config
+        self.walker = state.walker.copy()
+        self.last_command = state.last_command
+        self.pushes = list(state.pushes)
+        self._pending = list(state.pending)
+        self._applied = {b: f.copy() for b, f in state.applied.items()}
+        self.metrics = copy.copy(state.metrics)
+        self._ticks = state.ticks
+        self._tick = None
+        self._history = {
+            k: np.full((HISTORY,) if k == "t" else (HISTORY, 3), np.nan) for k in HISTORY_KEYS
+        }
+        self._n = 0
+        self._records_seen, self._records_recent = None, ()
+        self.release()
+
+    def replay(self, forces: Iterable[Mapping[str, np.ndarray]]) -> None:
+        """Step once per entry of ``forces``, applying those external forces (body → N) instead
+        of the push schedule and any pull: a recorded run again, tick for tick.  Subscribers
+        are not told (the ticks were told when they first happened)."""
+        for given in forces:
+            self._step(given, notify=False)
 
     # -- summaries ------------------------------------------------------------------------------
     @property

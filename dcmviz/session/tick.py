@@ -7,7 +7,7 @@ shells read it and nothing else of the session's insides.  Arrays are copies, sa
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -25,6 +25,22 @@ class AppliedPush:
     body: str  # push target (a key of RobotSpec.bodies)
     force: np.ndarray  # (3,) N, world
     point: np.ndarray  # (3,) m, world: where it acts
+
+
+@dataclass(frozen=True)
+class Pull:
+    """A spring pulling a body towards a point (the user's hand, MuJoCo-viewer style)."""
+
+    body: str  # a key of RobotSpec.bodies
+    target: np.ndarray  # (3,) m, world: the spring's other end
+    stiffness: float  # N/m
+    damping: float  # N·s/m
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(3))  # grab point − body origin
+
+    def grab(self, body_point: np.ndarray) -> np.ndarray:
+        """Where the spring holds the body (m, world) when the body's origin is at
+        ``body_point`` (the grab point moves with the body, without turning)."""
+        return np.asarray(body_point, float) + self.offset
 
 
 @dataclass(frozen=True)
@@ -53,6 +69,12 @@ class Tick:
     pose: RobotPose | None  # humanoid links for drawing; None for the point mass
     fell: bool  # the robot has fallen (this tick or earlier)
     done: bool  # a plan-mode walk has ended and the robot stands
+    # measured contacts: (centre of pressure m, force N) per sole in contact (the point mass:
+    # one, its contact force); cop: the centre of pressure of them all (None in the air)
+    contacts: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+    cop: np.ndarray | None = None
+    physics: np.ndarray | None = None  # the backend's physical state (MuJoCo: FULLPHYSICS)
+    pull: Pull | None = None  # a spring pull acting this tick (its force is in pushes)
 
     @property
     def dcm_error_m(self) -> float:

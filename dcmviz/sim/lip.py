@@ -14,6 +14,7 @@ step can reach (no single step can capture it) or the CoM drops below half its h
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -25,6 +26,23 @@ from dcmviz.robots.geometry import convex_hull, project_to_polygon, sole_corners
 from dcmviz.walker.state import MeasuredState, WalkerCommand
 
 E_Z = np.array([0.0, 0.0, 1.0])
+
+
+@dataclass(frozen=True)
+class LipState:
+    """Everything the point mass needs to continue exactly from one tick (:meth:`LipBackend.get_state`)."""
+
+    ticks: int
+    com: np.ndarray  # (3,) m
+    com_velocity: np.ndarray  # (3,) m/s
+    feet: dict[str, np.ndarray]
+    feet_yaw: dict[str, float]
+    in_contact: dict[str, bool]
+    applied: np.ndarray  # (3,) N, the contact force of the last tick
+    cop: np.ndarray  # (3,) m, its centre of pressure
+    support_distance: float
+    external: dict[str, np.ndarray]
+    fell: bool
 
 
 class LipBackend:
@@ -57,6 +75,7 @@ class LipBackend:
         self.com = np.array([0.0, 0.0, ground + self.spec.com_height_m])  # the robot's height
         self.com_velocity = np.zeros(3)
         self.applied = self.mass * GRAVITY * E_Z
+        self.cop = np.array([0.0, 0.0, ground])  # centre of pressure of the contact force
         self.support_distance = 0.0  # how far the asked VRP lay outside the support polygon
         self.external = {}
         self._external_sum = np.zeros(3)
@@ -129,6 +148,7 @@ class LipBackend:
         cop = self.com[:2] - height * f_c[:2] / f_z
         polygon = self.support_polygon()
         xy, self.support_distance = project_to_polygon(cop, polygon)
+        self.cop = np.array([xy[0], xy[1], ground])
         # f = k (x − p) with k = f_z / height, i.e. ẍ = (x − c)/β² with β² = m height / f_z and
         # c = p + β² g e_z − β² f_ext / m: the point the CoM is pushed away from (its VRP)
         beta2 = m * height / f_z
@@ -160,6 +180,41 @@ class LipBackend:
         ground = max(self.feet[s][2] for s in SIDES if self.in_contact[s])  # under the stance
         if d > self.spec.max_step_width_m or self.com[2] - ground < 0.5 * self.spec.com_height_m:
             self._fell = True
+
+    # -- state (resume exactly from a tick) and what the feet do -----------------------------
+    def get_state(self) -> LipState:
+        """A copy of the state: :meth:`set_state` with it continues exactly as this one would."""
+        return LipState(
+            ticks=self._ticks, com=self.com.copy(), com_velocity=self.com_velocity.copy(),
+            feet={s: p.copy() for s, p in self.feet.items()}, feet_yaw=dict(self.feet_yaw),
+            in_contact=dict(self.in_contact), applied=self.applied.copy(), cop=self.cop.copy(),
+            support_distance=self.support_distance,
+            external={b: f.copy() for b, f in self.external.items()}, fell=self._fell,
+        )  # fmt: skip
+
+    def set_state(self, state: LipState) -> MeasuredState:
+        """Continue from ``state`` (of this robot); returns its measurement."""
+        self._ticks = state.ticks
+        self.t = state.ticks * self.control_dt
+        self.com, self.com_velocity = state.com.copy(), state.com_velocity.copy()
+        self.feet = {s: p.copy() for s, p in state.feet.items()}
+        self.feet_yaw, self.in_contact = dict(state.feet_yaw), dict(state.in_contact)
+        self.applied, self.cop = state.applied.copy(), state.cop.copy()
+        self.support_distance = state.support_distance
+        self.external = {b: f.copy() for b, f in state.external.items()}
+        self._external_sum = sum(self.external.values(), np.zeros(3))
+        self._fell = state.fell
+        self._polygon_key = None
+        return self.measure()
+
+    def physics_state(self) -> np.ndarray:
+        """(7,) t, CoM and CoM velocity: the point mass's physical state this tick."""
+        return np.concatenate([[self.t], self.com, self.com_velocity])
+
+    def contacts(self) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+        """(centre of pressure m, force N) of each contact: the point mass has one, the force
+        its feet push with (along the line from the CoP to the CoM)."""
+        return ((self.cop.copy(), self.applied.copy()),)
 
     def body_position(self, body: str) -> np.ndarray:
         """Every push acts at the CoM of the point mass."""

@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 import math
 import time
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -28,6 +29,34 @@ _COS_45 = float(np.cos(np.radians(45.0)))  # a fall: the base tilted more than t
 
 # the clock of ``timings``: wall time; bench/sim.py may set CPU time (time.thread_time)
 _clock = time.perf_counter
+
+# what get_state keeps of MuJoCo's data: the whole integration state (time, qpos, qvel, act,
+# the solver's warm start, ctrl, applied forces): mj_setState with it, then mj_step, repeats a
+# step bit for bit
+STATE_SPEC = mujoco.mjtState.mjSTATE_INTEGRATION
+# the physical state per tick a shell may keep (time, qpos, qvel, act): 38 numbers for Talos
+PHYSICS_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+
+@dataclass(frozen=True)
+class MujocoState:
+    """Everything the humanoid backend needs to continue exactly from one tick
+    (:meth:`MujocoBackend.get_state`): MuJoCo's integration state and what the backend measured
+    and estimated at that tick."""
+
+    physics: np.ndarray  # mj_getState(..., STATE_SPEC)
+    t: float
+    contact: dict[str, bool]
+    contact_force: dict[str, float]
+    applied: np.ndarray  # (3,) N
+    contact_moment: np.ndarray  # (3,) N m
+    sole_wrenches: np.ndarray  # (2, 6) cfrc_ext of the soles
+    sole_points: np.ndarray  # (2, 3) the point those wrenches are about
+    observer: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # L0, integral, estimate
+    force_observer: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # p0, integral, estimate
+    sustained: tuple[np.ndarray, int, np.ndarray, np.ndarray]  # SustainedLoad.get_state()
+    observer_fresh: bool
+    held_tau: np.ndarray | None  # the whole-body QP's torques kept for a failed solve
 
 
 def terrain_model(robot: Robot, terrain: Terrain) -> mujoco.MjModel:
@@ -108,6 +137,10 @@ class MujocoBackend:
         self._sole_bodies = np.array(
             [self.model.geom_bodyid[self.model.geom(f"{s}_sole").id] for s in SIDES]
         )
+        # cfrc_ext is about the subtree CoM of each body's root (the robot's CoM)
+        self._sole_roots = self.model.body_rootid[self._sole_bodies]
+        self._sole_wrenches = np.zeros((len(SIDES), 6))
+        self._sole_points = np.zeros((len(SIDES), 3))
         self._sole_sites = np.array([self.scene.sole_sites[s] for s in SIDES])
         self._qpos_adr = np.asarray(self.scene.qpos_adr, dtype=np.intp)  # robot_pose's joints
         self.t = 0.0
@@ -195,6 +228,8 @@ class MujocoBackend:
         its contacts with every geom (the floor and any terrain box), so a sole on a tread counts."""
         mujoco.mj_rnePostConstraint(self.model, self.data)
         wrenches = self.data.cfrc_ext[self._sole_bodies]
+        self._sole_wrenches = wrenches  # (a copy: fancy indexing) for contacts()
+        self._sole_points = self.data.subtree_com[self._sole_roots]
         self._applied = wrenches[:, 3:].sum(axis=0)
         self._contact_moment = wrenches[:, :3].sum(axis=0)
         normal = wrenches[:, 5].tolist()
@@ -283,6 +318,80 @@ class MujocoBackend:
         low = bool(np.any(bodies[:, 2] - self.terrain.height_at(bodies[:, :2]) < 0.08))
         nominal = self.robot.q_nominal[2]
         return bool(base_z < 0.55 * nominal or up < _COS_45 or low)
+
+    # --- state (resume exactly from a tick) ------------------------------------------------
+    def get_state(self) -> MujocoState:
+        """A copy of the state: :meth:`set_state` with it continues bit for bit as this backend
+        would (MuJoCo's integration state, the measured contacts, the moment and force
+        observers, the sustained load's window, the whole-body QP's held torques)."""
+        physics = np.empty(mujoco.mj_stateSize(self.model, STATE_SPEC))
+        mujoco.mj_getState(self.model, self.data, physics, STATE_SPEC)
+        obs, fobs = self.moment_observer, self.force_observer
+        held = getattr(self.wbc, "_held_tau", None)
+        return MujocoState(
+            physics=physics, t=self.t, contact=dict(self._contact),
+            contact_force=dict(self._contact_force), applied=self._applied.copy(),
+            contact_moment=self._contact_moment.copy(),
+            sole_wrenches=self._sole_wrenches.copy(), sole_points=self._sole_points.copy(),
+            observer=None if obs is None else (obs.L0.copy(), obs.integral.copy(),
+                                               obs.estimate.copy()),
+            force_observer=None if fobs is None else (fobs.p0.copy(), fobs.integral.copy(),
+                                                      fobs.estimate.copy()),
+            sustained=self.wbc.sustained.get_state(),
+            observer_fresh=self._observer_fresh,
+            held_tau=None if held is None else np.array(held, float),
+        )  # fmt: skip
+
+    def set_state(self, state: MujocoState) -> MeasuredState:
+        """Continue from ``state`` (of this model); returns its measurement."""
+        mujoco.mj_setState(self.model, self.data, state.physics, STATE_SPEC)
+        mujoco.mj_forward(self.model, self.data)  # body positions (drawing, falls) of the state
+        self.t = state.t
+        self._contact, self._contact_force = dict(state.contact), dict(state.contact_force)
+        self._applied, self._contact_moment = state.applied.copy(), state.contact_moment.copy()
+        self._sole_wrenches = state.sole_wrenches.copy()
+        self._sole_points = state.sole_points.copy()
+        if self.moment_observer is not None and state.observer is not None:
+            obs = self.moment_observer
+            obs.L0, obs.integral, obs.estimate = (a.copy() for a in state.observer)
+        if self.force_observer is not None and state.force_observer is not None:
+            fobs = self.force_observer
+            fobs.p0, fobs.integral, fobs.estimate = (a.copy() for a in state.force_observer)
+        self.wbc.sustained.set_state(state.sustained)
+        self._observer_fresh = state.observer_fresh
+        if state.held_tau is not None and hasattr(self.wbc, "_held_tau"):
+            self.wbc._held_tau = state.held_tau.copy()
+        d = self.data
+        self._ctx = self.wbc.kinematics.context(
+            self.scene.q_pin(d.qpos), self.scene.v_pin(d.qpos, d.qvel)
+        )
+        if self.moment_observer is not None:
+            self._ctx.external_moment = self.moment_observer.estimate.copy()
+            self._ctx.external_force = self.force_observer.estimate.copy()
+        return self.measure()
+
+    def physics_state(self) -> np.ndarray:
+        """MuJoCo's physical state this tick (mjSTATE_FULLPHYSICS: time, qpos, qvel, act)."""
+        out = np.empty(mujoco.mj_stateSize(self.model, PHYSICS_SPEC))
+        mujoco.mj_getState(self.model, self.data, out, PHYSICS_SPEC)
+        return out
+
+    def contacts(self) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+        """(centre of pressure m, force N) of each sole in contact, from MuJoCo's contact
+        wrench on the sole (cfrc_ext, about the robot's CoM): the point on the sole's plane
+        about which the contact moment has no horizontal part."""
+        out = []
+        for i, side in enumerate(SIDES):
+            f, tau = self._sole_wrenches[i, 3:], self._sole_wrenches[i, :3]
+            if not self._contact[side] or f[2] <= 1e-6:
+                continue
+            c = self._sole_points[i]
+            z = self._ctx.sole_position[side][2] if self._ctx is not None else 0.0
+            rz = c[2] - z
+            cop = np.array([c[0] - (tau[1] + rz * f[0]) / f[2],
+                            c[1] + (tau[0] - rz * f[1]) / f[2], z])  # fmt: skip
+            out.append((cop, f.copy()))
+        return tuple(out)
 
     # --- drawing / recording -------------------------------------------------------------
     def qpos_by_joint(self) -> dict[str, float]:

@@ -17,6 +17,7 @@ Each tick the walker reads a :class:`~dcmviz.walker.state.MeasuredState` and ans
 
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -193,6 +194,16 @@ class Walker:
             done=walk.done(t),
             legs_may_cross=self.strategy.crosses_legs,
         )
+
+    def copy(self) -> Walker:
+        """An independent copy that continues exactly as this walker would from its last tick
+        (walk, observer, strategy, last command); what never changes is shared: the robot's
+        facts, the terrain, the planner, the settings and the plans (frozen)."""
+        shared = [self.robot, self.spec, self.terrain, self.planner, self.config, self.control]
+        walk = self.walk
+        if walk is not None:
+            shared += [walk.plan, walk.nominal_plan, walk.records, walk.planner]
+        return copy.deepcopy(self, {id(x): x for x in shared})
 
     def _lean_height(self, shift: np.ndarray) -> np.ndarray:
         """The reference shift with the CoM lowered where leaning away from a sustained force

@@ -18,7 +18,7 @@ class SustainedLoad:
     def __init__(self, time_constant_s: float, dt: float = 0.002) -> None:
         self.time_constant_s = float(time_constant_s)
         self._n = max(1, round(self.time_constant_s / dt)) if self.time_constant_s > 0 else 0
-        self._window = np.zeros((self._n, 6))
+        self._window = np.zeros((6, self._n))  # one row per component: min/max along rows
         self.reset()
 
     def reset(self) -> None:
@@ -27,18 +27,30 @@ class SustainedLoad:
         self._window[:] = 0.0
         self._i = 0
 
+    def get_state(self) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
+        """A copy of the window, its index and the present values (a resume from a tick)."""
+        return self._window.copy(), self._i, self.force.copy(), self.moment.copy()
+
+    def set_state(self, state: tuple[np.ndarray, int, np.ndarray, np.ndarray]) -> None:
+        """Continue from :meth:`get_state`'s copy."""
+        window, self._i, force, moment = state
+        self._window[:] = window
+        self.force, self.moment = force.copy(), moment.copy()
+
     def update(self, t: float, force: np.ndarray, moment: np.ndarray) -> None:
         """Take the present estimates (N, N m) at time ``t`` (s; one sample per control tick)."""
         if self._n == 0:
             self.force = np.array(force, dtype=float)
             self.moment = np.array(moment, dtype=float)
             return
-        row = self._window[self._i]
-        row[:3] = force
-        row[3:] = moment
+        column = self._window[:, self._i]
+        column[:3] = force
+        column[3:] = moment
         self._i = (self._i + 1) % self._n
-        low = self._window.min(axis=0)
-        high = self._window.max(axis=0)
-        value = np.where(low > 0.0, low, np.where(high < 0.0, high, 0.0))
-        self.force = value[:3]
-        self.moment = value[3:]
+        low = self._window.min(axis=1).tolist()
+        high = self._window.max(axis=1).tolist()
+        value = [
+            lo if lo > 0.0 else hi if hi < 0.0 else 0.0 for lo, hi in zip(low, high, strict=True)
+        ]
+        self.force = np.array(value[:3])
+        self.moment = np.array(value[3:])
