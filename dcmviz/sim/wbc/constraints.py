@@ -57,10 +57,13 @@ class FloatingBaseDynamics(Constraint):
         np.negative(ctx.h[:6], out=lo)
         force = ctx.external_force
         moment = ctx.external_moment
-        if force.any() or moment.any():
+        fx, fy, fz = force.tolist()  # plain floats: numpy's per-call cost dominates on 3-vectors
+        if fx or fy or fz or moment.any():
             rot_t = ctx.base_rotation.T
             lo[:3] += rot_t @ force
-            lo[3:] += rot_t @ (moment + np.cross(ctx.com - ctx.q[:3], force))
+            rx, ry, rz = (ctx.com - ctx.q[:3]).tolist()  # (c - p_base) × F̂ (np.cross: ~50 µs)
+            arm = np.array([ry * fz - rz * fy, rz * fx - rx * fz, rx * fy - ry * fx])
+            lo[3:] += rot_t @ (moment + arm)
         up[:] = lo
         return True
 

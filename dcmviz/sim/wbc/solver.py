@@ -16,6 +16,7 @@ Solved with daqp (dense active set; fastest measured on this QP, see DESIGN.md).
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -130,7 +131,7 @@ class WholeBodyController:
         # between the feet keeps each CoP away from the sole's edges unless a task needs it.
         ax, ay = robot.foot_length / 2, robot.foot_width / 2
         self._wrench_reg = g.w_wrench_reg / mass**2
-        self._moment_metric = np.diag([1 / ay**2, 1 / ax**2, 1 / (ax**2 + ay**2)])
+        self._moment_diag = np.array([1 / ay**2, 1 / ax**2, 1 / (ax**2 + ay**2)])
         self._H_constant = np.diag(self._reg)  # regularisation + state-independent AᵀA
         for s in SIDES:
             i = lay.wrench[s].start
@@ -201,7 +202,8 @@ class WholeBodyController:
         for s in SIDES:
             i = lay.wrench[s].start + 3
             R = ctx.sole_rotation[s]
-            H[i : i + 3, i : i + 3] += self._wrench_reg * (R @ self._moment_metric @ R.T)
+            # R diag(m) Rᵀ as (R m) Rᵀ: the same numbers, one matrix product fewer
+            H[i : i + 3, i : i + 3] += self._wrench_reg * ((R * self._moment_diag) @ R.T)
         weighted = self._weighted
         for task in self.tasks:
             out = task.compute(ctx, cmd)
@@ -246,7 +248,7 @@ class WholeBodyController:
         self.timings["qp_solve"] += t2 - t1
         # 1: optimal; 2: optimal with soft constraints (joint ranges) relaxed where nothing
         # else was feasible — a solution all the same
-        ok = exitflag in (1, 2) and bool(np.isfinite(x).all())
+        ok = exitflag in (1, 2) and math.isfinite(x.sum())  # a NaN or inf anywhere
         if ok:
             qdd = x[:nv]
             wr = {s: x[lay.wrench[s]].copy() for s in SIDES}
