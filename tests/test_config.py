@@ -148,7 +148,7 @@ def test_b_outside_the_robots_heights_is_refused_with_height_and_ranges():
         config_from_dict({"dcm": {"b": 0.33}})
     assert str(err.value) == (
         "dcm.b = 0.33: asks for a CoM height of 1.068 m; talos walks at 0.720–0.900 m, "
-        "i.e. b from 0.271 to 0.303 s"
+        "i.e. b from 0.271 to 0.302 s"
     )
     for robot, b in (("talos", 0.26), ("g1", 0.30), ("g1", 0.2)):
         with pytest.raises(ConfigError) as err:

@@ -98,6 +98,18 @@ def _height_warnings(plan: GaitPlan, spec: RobotSpec) -> list[PlanWarning]:
     if heights[k] >= plan.dz_vrp - HEIGHT_TOLERANCE_M:
         return []
     span = leg_span_m(spec, plan.stance_for(k), plan.steps[k])
+    lo, hi = spec.com_height_range_m
+    if heights[k] < lo:  # no walking height at all: say so, not a height the robot never has
+        return [
+            PlanWarning(
+                f"footstep {k + 1} lies {span / REACH_FRACTION:.3f} m from its stance foot: "
+                f"with the feet that far apart {spec.name}'s legs cannot hold the CoM at any "
+                f"height it walks at ({lo:.2f}–{hi:.2f} m); shorter steps (gait.step_length, "
+                f"gait.step_width) keep it",
+                "gait.step_length",
+                k,
+            )
+        ]
     return [
         PlanWarning(
             f"dcm.b = {plan.b:.3f} asks for a CoM height of {plan.dz_vrp:.3f} m, but with "

@@ -42,8 +42,8 @@ def report(rm: RobotModel) -> str:
         pinned = getattr(rf.walking, key) is not None
         note = f"   (pinned; derived {derived:.3f})" if pinned else ""
         lines.append(f"  {key:22s} {used:8.3f} {unit}{note}")
-    lo, hi = s.b_range_s
-    lines.append(f"  b range {lo:.3f}–{hi:.3f} s (nominal {s.b_nominal_s:.3f} s)")
+    lo, hi = s.b_range_text()
+    lines.append(f"  b range {lo}–{hi} s (nominal {s.b_nominal_s:.3f} s)")
     lines.append(
         f"  feet {s.foot_length_m:.3f} × {s.foot_width_m:.3f} m; bodies: "
         + ", ".join(f"{k}→{v}" for k, v in s.bodies.items())

@@ -8,6 +8,7 @@ Pinocchio (:mod:`dcmviz.robots.model`).  Importing this module is cheap; the fir
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from dcmviz import GRAVITY
@@ -63,8 +64,19 @@ class RobotSpec:
         lo, hi = self.com_height_range_m
         if lo - 1e-9 <= height <= hi + 1e-9:
             return ""
-        b_lo, b_hi = self.b_range_s
+        b_lo, b_hi = self.b_range_text()
         return (
             f"asks for a CoM height of {height:.3f} m; {self.name} walks at "
-            f"{lo:.3f}–{hi:.3f} m, i.e. b from {b_lo:.3f} to {b_hi:.3f} s"
+            f"{lo:.3f}–{hi:.3f} m, i.e. b from {b_lo} to {b_hi} s"
+        )
+
+    def b_range_text(self, decimals: int = 3) -> tuple[str, str]:
+        """b's range rounded inwards to ``decimals``: every b written with that many decimals
+        between the two is one the robot walks at (0.2714–0.3027 s reads 0.272–0.302, not
+        0.271–0.303, both of which are refused)."""
+        lo, hi = self.b_range_s
+        q = 10**decimals
+        return (
+            f"{math.ceil(lo * q - 1e-9) / q:.{decimals}f}",
+            f"{math.floor(hi * q + 1e-9) / q:.{decimals}f}",
         )
