@@ -211,7 +211,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--preset", default=str(BASE_PRESET), help="base preset (gait timing, control)")
     p.add_argument("--scales", type=floats, default=list(DEFAULT_SCALES))
     p.add_argument("--starts", type=int, default=4, help="push start times over one gait cycle")
-    p.add_argument("--levels", type=floats, default=list(DEFAULT_LEVELS), help="pull, % of m g")
+    p.add_argument("--levels", type=floats, default=list(DEFAULT_LEVELS), help="pull, %% of m g")
     p.add_argument("--pull-sides", default="+,-", help="pull directions: +,- (left, right)")
     p.add_argument("--recovery", choices=("next_step", "multi_step", "multi_step_timing"))
     p.add_argument("--no-observer", action="store_true", help="control.observer = false")
