@@ -192,16 +192,18 @@ def test_feasibility_knows_crossed_stances() -> None:
 
 
 @pytest.mark.slow
-def test_talos_crosses_without_its_legs_touching() -> None:
+@pytest.mark.parametrize("impulse", [23.0, 26.0, 29.0])
+def test_talos_crosses_without_its_legs_touching(impulse: float) -> None:
     """Talos in MuJoCo, a 0.2 s push towards its stance foot at mid single support: the
     crossover strategy puts the swinging foot across in front of the stance foot, and MuJoCo
-    reports no contact between the legs at any tick (the whole-body QP keeps them apart)."""
+    reports no contact between the legs at any tick (the whole-body QP keeps them apart).
+    Survived over a range of impulses (measured: 20-29 N s survived, 32 falls), not one value."""
     config = load_preset(ROOT / "presets" / "walk_forward.toml").replace(
         pushes=[], control={"recovery": "crossover", "observer": False}
     )
     start = push_window(config, 4, 0.5)[0]
     s = Session(config, backend="mujoco")
-    s.push((0.0, 26.0 / 0.2, 0.0), 0.2, start=start)
+    s.push((0.0, impulse / 0.2, 0.0), 0.2, start=start)
     contacts, modes = 0, set()
     while s.t < start + 2.5 and not s.fell:
         s.step()
