@@ -345,7 +345,11 @@ def take_screenshot(page, dashboard: Dashboard, path: Path) -> None:
     dashboard.editor.on_field_change("gait", "n_steps", 10)
     dashboard.preview.wait(dashboard.version)
     for button in page.locator("button.mantine-Notification-closeButton").all():
-        button.click()
+        try:
+            button.click(timeout=2000)
+        except Exception:  # noqa: BLE001 - closed by itself meanwhile (or a starved page)
+            pass
+    dashboard.gui_follow.value = False  # the view set here stays
     for client in dashboard.server.get_clients().values():  # front-right: the push crosses the view
         client.camera.position = (2.75, -1.35, 1.4)
         client.camera.look_at = (0.8, 0.2, 0.6)
@@ -359,11 +363,11 @@ def take_screenshot(page, dashboard: Dashboard, path: Path) -> None:
         time.sleep(0.01)
     while loop.session.t < 3.1 and time.time() < deadline:
         time.sleep(0.005)
-    dashboard.sim_panel.on_play(False)
+    dashboard.time_panel.on_play(False)
     time.sleep(2.5)  # let the browser catch up with the last frames
     path.parent.mkdir(parents=True, exist_ok=True)
     page.screenshot(path=str(path))
-    dashboard.sim_panel.on_play(True)
+    dashboard.time_panel.on_play(True)
     print(f"screenshot: {path} (t = {loop.session.t:.2f} s, falls {loop.falls})")
 
 

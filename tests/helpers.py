@@ -1,8 +1,10 @@
-"""Small helpers shared by the dashboard tests: a free loopback port and waiting on a condition."""
+"""Small helpers shared by the tests: a free loopback port, waiting on a condition, a child
+process's output lines, an RK4 integration."""
 
 from __future__ import annotations
 
 import socket
+import threading
 import time
 from collections.abc import Callable
 
@@ -34,3 +36,25 @@ def rk4(f: Callable, y, h: float, n: int):
         k4 = f(y + h * k3)
         y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     return y
+
+
+class OutputLines:
+    """The lines a child process prints, read by a thread, so a test waits with a timeout
+    instead of blocking in ``readline`` on a child that prints nothing."""
+
+    def __init__(self, stream) -> None:
+        self.lines: list[str] = []
+        self._changed = threading.Condition()
+        threading.Thread(target=self._read, args=(stream,), daemon=True).start()
+
+    def _read(self, stream) -> None:
+        for line in stream:
+            with self._changed:
+                self.lines.append(line)
+                self._changed.notify_all()
+
+    def wait_for(self, condition: Callable[[list[str]], bool], timeout: float) -> list[str]:
+        """The lines so far once ``condition(lines)`` holds or ``timeout`` s have passed."""
+        with self._changed:
+            self._changed.wait_for(lambda: condition(self.lines), timeout)
+            return list(self.lines)

@@ -21,7 +21,7 @@ import pytest
 viser = pytest.importorskip("viser")
 websockets = pytest.importorskip("websockets")
 
-from helpers import free_port  # noqa: E402
+from helpers import OutputLines, free_port  # noqa: E402
 from test_guard import CAMERA, decode, notified, update, uuid_of, wait_for  # noqa: E402
 
 from dcmviz.config import Config  # noqa: E402
@@ -273,10 +273,9 @@ def test_app_prints_presenter_and_watch_urls_for_a_room() -> None:
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=ROOT,
     )  # fmt: skip
     try:
-        lines: list[str] = []
-        deadline = time.time() + 120
-        while time.time() < deadline and not any("TLS" in line for line in lines):
-            lines.append(proc.stdout.readline())
+        lines = OutputLines(proc.stdout).wait_for(
+            lambda lines: any("TLS" in line for line in lines), timeout=120
+        )
         text = "".join(lines)
         presenter = next(line for line in lines if "presenter" in line).split()[-1]
         watch = next(line for line in lines if "watch (" in line).split()[-1]
@@ -295,3 +294,21 @@ def test_bad_key_is_refused_with_what_is_allowed() -> None:
         capture_output=True, text=True, cwd=ROOT, timeout=60,
     )  # fmt: skip
     assert out.returncode == 2 and "--key" in out.stderr and "at least 8" in out.stderr
+
+
+@pytest.mark.parametrize(
+    ("flag", "value", "allowed"),
+    [
+        ("--max-tabs", "0", "at least 1"),
+        ("--max-tabs", "-3", "at least 1"),
+        ("--public-url", "example.org:8443", "http:// or https://"),
+        ("--public-url", "ftp://example.org", "http:// or https://"),
+        ("--port", "70000", "1..65535"),
+    ],
+)
+def test_bad_room_flags_are_refused_naming_the_flag(flag: str, value: str, allowed: str) -> None:
+    out = subprocess.run(
+        [sys.executable, str(ROOT / "app.py"), "--host", "0.0.0.0", flag, value],
+        capture_output=True, text=True, cwd=ROOT, timeout=60,
+    )  # fmt: skip
+    assert out.returncode == 2 and flag in out.stderr and allowed in out.stderr, out.stderr

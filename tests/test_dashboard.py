@@ -81,6 +81,61 @@ def test_slider_ranges_are_what_validation_accepts() -> None:
     assert slider_range_of("dcm", "b", talos) == (0.271, 0.302)
 
 
+def test_every_slider_range_is_what_validation_accepts_with_the_other_settings(
+    dash: Dashboard,
+) -> None:
+    """Issue 25: for random settings of two robots, every slider's ends are accepted by the
+    preset validation with every other setting as it is, and one grid step beyond either end is
+    refused (how far a step may reach depends on the turn and the width, how far it may turn on
+    its length); the push sliders likewise (T_ramp at most T_push)."""
+    from dcmviz.config import ConfigError, config_from_dict
+    from dcmviz.dashboard.gui import ALL_SLIDERS
+
+    rng = np.random.default_rng(25)
+    checked = 0
+    for robot in ("talos", "g1", "talos", "g1", "talos", "g1"):
+        spec = load_robot(robot).spec
+        while True:  # a random valid config of this robot
+            data = Config().replace(robot={"model": robot}, dcm={"b": spec.b_nominal_s}).to_dict()
+            data["gait"].update(
+                step_length=round(float(rng.uniform(-1, 1) * spec.max_step_length_m), 2),
+                step_width=round(float(rng.uniform(spec.min_step_width_m, 0.4)), 2),
+                turn=round(float(rng.uniform(-0.4, 0.4)), 2),
+            )
+            try:
+                config = config_from_dict(data)
+                break
+            except ConfigError:
+                continue
+        assert dash.editor.apply_config(config)
+        dash.apply_ranges()
+        for slider in ALL_SLIDERS:
+            handle = dash.controls.handles[(slider.section, slider.name)]
+            for value, beyond in ((handle.min, handle.min - slider.step),
+                                  (handle.max, handle.max + slider.step)):  # fmt: skip
+                data = config.to_dict()
+                value = int(value) if slider.name == "n_steps" else value
+                data[slider.section][slider.name] = value
+                if slider.name in ("step_length", "step_width", "turn", "step_height"):
+                    data[slider.section].pop("footsteps", None)
+                config_from_dict(data)  # the end: accepted
+                data[slider.section][slider.name] = round(beyond, 6)
+                with pytest.raises(ConfigError):  # one step beyond: refused
+                    config_from_dict(data)
+                checked += 1
+    assert checked == 6 * 2 * len(ALL_SLIDERS)
+    push = dash.push_panel
+    push.gui_push_duration.value = 0.4
+    assert push.gui_push_ramp.max == 0.4  # a ramp is at most the push
+    assert push.gui_push_magnitude.max == 5000.0
+    from dcmviz.config import Push
+
+    Push(start=0.0, duration=0.4, force=(5000.0, 0.0, 0.0), ramp=0.4)  # the ends: accepted
+    for bad in ({"ramp": 0.45}, {"force": (5005.0, 0.0, 0.0)}):
+        with pytest.raises(ValueError):
+            Push(**{"start": 0.0, "duration": 0.4, "force": (10.0, 0.0, 0.0), **bad})
+
+
 def test_feasibility_warnings_beside_the_preview_and_in_the_scene(dash: Dashboard) -> None:
     """Issue 9: a setting outside the robot's reach gives a visible warning: a markdown block in
     the Plan tab, a line in the status, red marks on the offending steps and waypoints."""
@@ -414,13 +469,13 @@ def test_mode_robot_and_backend_switch(dash: Dashboard) -> None:
 
 def test_play_pause_reset_speed(dash: Dashboard) -> None:
     dash.sim_panel.on_play(False)
-    assert dash.sim_panel.gui_play.label == "Play"
+    assert dash.time_panel.gui_play.label == "Play"
     dash.sim_panel.on_speed(0.5)
     dash.sim_panel.on_reset()
     drain(dash)
     assert not dash.loop.playing and dash.loop.speed == 0.5 and dash.loop.resets == 1
     dash.sim_panel.on_play(True)
-    assert dash.sim_panel.gui_play.label == "Pause"
+    assert dash.time_panel.gui_play.label == "Pause"
 
 
 def test_preset_dropdown_follows_edits(dash: Dashboard) -> None:
@@ -688,7 +743,7 @@ def test_a_tab_is_sent_only_what_changed_each_frame() -> None:
     from test_guard import CAMERA, decode
     from websockets.sync.client import connect
 
-    from dcmviz.dashboard.render import RENDER_FPS, STATUS_DT_S
+    from dcmviz.dashboard.render import FOLLOW_DT_S, STATUS_DT_S
 
     server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
     d = Dashboard(server, Config().replace(sim={"backend": "lip"}), presets_dir=PRESETS)
@@ -710,8 +765,10 @@ def test_a_tab_is_sent_only_what_changed_each_frame() -> None:
             assert wait_for(lambda: not d.loop.held and d.loop.session.t > 1.2)  # stepping
             i0, frames0 = len(received), d.view.frames_drawn
             landed0 = len(d.loop.snapshot.tick.realised_steps)
+            wall0 = time.monotonic()
             assert wait_for(lambda: d.view.frames_drawn - frames0 >= 90)
             messages = received[i0:]
+            wall = time.monotonic() - wall0  # (more than 90 frames' worth on a loaded machine)
             frames = d.view.frames_drawn - frames0 + 3  # (frames in flight at either end)
             landed = len(d.loop.snapshot.tick.realised_steps) - landed0
         assert d.loop.session.t > 1.2  # (the window did not span a loop of the plan)
@@ -724,16 +781,123 @@ def test_a_tab_is_sent_only_what_changed_each_frame() -> None:
         assert by.get(("SetPositionMessage", "/sim/com"), 0) <= frames
         assert by.get(("SceneNodeUpdateMessage", "/sim/lip_leg"), 0) <= frames
         status = by.get(("GuiUpdateMessage", d.gui_status._impl.uuid), 0)
-        assert status <= frames / (RENDER_FPS * STATUS_DT_S) + 2
+        # once a second (the clock), and at once when anything else changes (a landing)
+        assert status <= wall / STATUS_DT_S + landed + 2
+        assert by.get(("SceneNodeUpdateMessage", "/sim/pins"), 0) <= frames
+        camera = by.get(("SetCameraPositionMessage", None), 0)
+        assert camera <= wall / FOLLOW_DT_S + 2
         created = [k for k in by if k[0].endswith("Message") and k[0] not in (
             "SceneNodeUpdateMessage", "SetPositionMessage", "SetOrientationMessage",
-            "SetSceneNodeVisibilityMessage", "GuiUpdateMessage",
+            "SetSceneNodeVisibilityMessage", "GuiUpdateMessage", "SetCameraPositionMessage",
+            "SetCameraLookAtMessage",
         )]  # fmt: skip
         assert {name for _, name in created} <= {"/sim/realised"}, created
         assert by.get(("MeshMessage", "/sim/realised"), 0) <= landed + 1
-        per_frame = len(messages) / frames
-        # the ball, its leg and the dots (≤ 3), plus the rest
-        assert per_frame <= 3.5, sorted(by.items(), key=lambda kv: -kv[1])[:8]
+        assert by.get(("SceneNodeUpdateMessage", "/sim/contacts"), 0) <= frames
+        per_frame = (len(messages) - 2 * camera) / frames
+        # the ball, its leg, the dots (and the CoP), their pins and the contact force (≤ 5),
+        # plus the rest
+        assert per_frame <= 5.5, sorted(by.items(), key=lambda kv: -kv[1])[:8]
     finally:
         d.stop()
         server.stop()
+
+
+def test_a_lagging_tab_keeps_its_camera_on_the_robot() -> None:
+    """Issue 25 (defect 7: the robot walked out of the view): with the camera following by
+    default, a tab that echoes the server's camera moves back 1.5 s late (software rendering
+    does) keeps its view on the robot: its camera stays at its own offset from the robot
+    instead of falling behind by the walk of every late echo."""
+    import asyncio
+
+    import msgspec
+    import websockets
+    from test_guard import CAMERA, decode
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    d = Dashboard(server, Config().replace(sim={"backend": "lip"}), presets_dir=PRESETS)
+    first = msgspec.msgpack.decode(CAMERA)
+    offset = np.array(first["look_at"]) - np.array(first["position"])
+    initial = np.asarray(server.initial_camera.position, float)
+
+    received: list[list[float]] = []
+
+    async def lagging_tab(seconds: float) -> None:
+        url = f"ws://127.0.0.1:{server.get_port()}"
+        async with websockets.connect(url, subprotocols=[f"viser-v{viser.__version__}"]) as ws:
+            await ws.send(CAMERA)
+            loop = asyncio.get_running_loop()
+            deadline = loop.time() + seconds
+
+            async def echo(position: list[float]) -> None:
+                await asyncio.sleep(1.5)  # the tab applies and reports it late
+                look = (np.array(position) + offset).tolist()
+                await ws.send(
+                    msgspec.msgpack.encode({**first, "position": position, "look_at": look})
+                )
+
+            tasks = []
+            while (left := deadline - loop.time()) > 0:
+                try:
+                    frame = await asyncio.wait_for(ws.recv(), timeout=left)
+                except TimeoutError:
+                    break
+                for m in decode(frame):
+                    if m["type"] == "SetCameraPositionMessage":
+                        if np.allclose(m["position"], initial):
+                            # the initial camera: a browser applies it before its first
+                            # report; echoing it seconds later would be a user's move
+                            continue
+                        received.append(list(m["position"]))
+                        tasks.append(asyncio.create_task(echo(list(m["position"]))))
+            for task in tasks:
+                task.cancel()
+
+    try:
+        assert wait_for(lambda: d.loop.session.t > 0.2, 20)
+        x0 = float(d.loop.snapshot.com[0])
+        asyncio.run(lagging_tab(6.0))
+        x1 = float(d.view._follow_anchor[0])  # where the last camera move put the robot
+        assert x1 - x0 > 0.3 and received  # the robot walked while the tab lagged
+        # the tab was sent its camera at its first offset from the robot, not behind it
+        assert received[-1][0] - x1 == pytest.approx(first["position"][0] - x0, abs=0.05)
+    finally:
+        d.stop()
+        server.stop()
+
+
+def test_a_camera_put_beside_a_paused_robot_stays_there() -> None:
+    """Camera follow takes a tab's new camera (the user's, a test's) at its offset from the
+    robot where the robot is now: after the walk pauses, a camera put there is not moved by the
+    robot's last steps before the pause (it was moved along by them: the click test's camera
+    landed 6-18 mm beside where it was put), and it is followed again once the robot walks."""
+    from contextlib import nullcontext
+    from types import SimpleNamespace
+
+    from dcmviz.dashboard.render import SimView
+
+    view = SimView.__new__(SimView)  # what camera follow reads, without a server
+    camera = SimpleNamespace(position=np.array([-2.0, -0.6, 1.0]), look_at=np.zeros(3))
+    client = SimpleNamespace(camera=camera, atomic=nullcontext)
+    view.server = SimpleNamespace(get_clients=lambda: {1: client})
+    view.gui_follow = SimpleNamespace(value=True)
+    view._cameras, view._follow_anchor, view._follow_ground = {}, None, 0.0
+    view._cameras_lock = threading.Lock()
+
+    def follow(x: float) -> None:
+        view._follow(SimpleNamespace(tick=None, pose=None, com=np.array([x, 0.0, 0.88])))
+
+    for x in (0.0, 0.02, 0.04):  # the camera follows the walk
+        follow(x)
+    assert camera.position[0] > -2.0 and camera.position[1:].tolist() == [-0.6, 1.0]
+    # the robot takes its last steps (to 0.055) and pauses; a camera is put beside it before
+    # the follow's next look (every FOLLOW_DT_S)
+    put, look = np.array([-1.5, -0.6, 1.3]), np.array([0.055, -0.5, 0.9])
+    camera.position, camera.look_at = put.copy(), look.copy()
+    for _ in range(3):
+        follow(0.055)
+    np.testing.assert_array_equal(camera.position, put)
+    np.testing.assert_array_equal(camera.look_at, look)
+    follow(0.155)  # walking again: followed from there
+    np.testing.assert_allclose(camera.position, put + [0.1, 0.0, 0.0])
+    np.testing.assert_allclose(camera.look_at, look + [0.1, 0.0, 0.0])

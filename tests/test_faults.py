@@ -194,8 +194,10 @@ def test_fall_is_shown_once_with_its_likely_cause(running) -> None:
             t_.close()
 
 
-def test_fall_cause_names_the_plan_warning(running) -> None:
-    """A plan the checker warns about: the fall names the warning (the likely cause)."""
+def test_fall_cause_names_the_push_first_then_the_plan_warning(running) -> None:
+    """A plan the checker warns about, and a push too large to survive: the fall is the push's
+    (issue 25: a recent push is named first; the plan walked before it) and the plan's
+    warning is still counted."""
     d, _, port = running
     tab_ = Tab(port)
     assert wait_for(lambda: len(d.server.get_clients()) == 1)
@@ -208,7 +210,9 @@ def test_fall_cause_names_the_plan_warning(running) -> None:
             "push", {"force": (0.0, 2000.0, 0.0), "duration": 0.5, "ramp": 0.0, "body": "torso"}
         )
         assert wait_for(lambda: tab_.visible_notifications({"Fall"}), timeout=10)
-        assert "Likely cause: VRP waypoint 2 (D2" in tab_.visible_notifications({"Fall"})[0]
+        text = tab_.visible_notifications({"Fall"})[0]
+        assert "Likely cause: the push on the torso at t = " in text, text
+        assert "2000 N" in text and "the plan also has 1 feasibility warning" in text, text
     finally:
         tab_.close()
 

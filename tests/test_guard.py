@@ -216,7 +216,7 @@ def test_representation_is_not_a_change_but_a_clamp_is(served) -> None:
     assert wait_for(lambda: magnitude.value == 80.0 and d.config.control.k_xi == pytest.approx(3.1))
     assert isinstance(magnitude.value, float)
     assert not any(title == "Value changed" for title, _ in list(d.notifications)[before:])
-    tab(port, [update(uuid_of(magnitude), {"value": 5000.0})], notified("Value changed"))
+    tab(port, [update(uuid_of(magnitude), {"value": 6000.0})], notified("Value changed"))
     assert wait_for(lambda: d.notifications and d.notifications[-1][0] == "Value changed")
     assert magnitude.value == magnitude.max and str(magnitude.max) in d.notifications[-1][1]
 

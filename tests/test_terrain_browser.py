@@ -128,8 +128,8 @@ def test_stairs_preset_shows_the_stairs_and_talos_on_them(shots: Path) -> None:
             # from the robot's left, above: the stairs rise to the image's left; the robot sits
             # left of the canvas's middle (the control panel floats over its right part)
             position = middle + np.array([-0.8, 3.6, 1.4])
-            client.camera.position = position
-            client.camera.look_at = middle + np.array([-0.9, 0.0, 0.2])
+            # (through the view: camera follow, on by default, keeps it)
+            dashboard.view.put_camera(client, position, middle + np.array([-0.9, 0.0, 0.2]))
             assert wait_for(lambda: np.allclose(client.camera.position, position, atol=1e-3))
             cam = client.camera
             box = page.locator("canvas").first.bounding_box()

@@ -53,10 +53,31 @@ def compact(warnings: Sequence[PlanWarning]) -> str:
     return f"<span style='color:#e61414'>{n} feasibility warning{'s' * (n > 1)}</span>{what}"
 
 
-def likely_cause(warnings: Sequence[PlanWarning], config: Config, pushed: bool = False) -> str:
-    """Why the robot probably fell or the walk failed, from the plan's warnings and the config."""
+def likely_cause(
+    warnings: Sequence[PlanWarning],
+    config: Config,
+    push: tuple | None = None,
+) -> str:
+    """Why the robot probably fell: a push just before the fall first (the plan was walkable
+    before it), then the plan's first warning, then what the settings suggest."""
+    if push is not None:
+        t, body, force = push[:3]
+        what = "pull (a drag)" if len(push) > 3 and push[3] else "push"
+        from dcmviz.dashboard.push import describe
+
+        more = (
+            f" (the plan also has {len(warnings)} feasibility warning"
+            + f"{'s' * (len(warnings) > 1)})"
+            if warnings
+            else ""
+        )
+        return (
+            f"likely cause: the {what} on the {body} at t = {t:.2f} s ({describe(force)}): more "
+            f"than step adjustment could catch (a smaller |F| or T_push, or a larger "
+            f"|Δv_adj|max){more}"
+        )
     if warnings:
-        first = warnings[0].message
+        first = main_warning(warnings).message
         more = f" (and {len(warnings) - 1} more warnings)" if len(warnings) > 1 else ""
         return f"likely cause: {first}{more}"
     spec = load_robot(config.robot.model).spec
@@ -66,11 +87,35 @@ def likely_cause(warnings: Sequence[PlanWarning], config: Config, pushed: bool =
             f"likely cause: step length {gait.step_length} m at the reach limit "
             f"({spec.max_step_length_m} m)"
         )
-    if pushed:
-        return "likely cause: the push (try a smaller |F| or a shorter T_push)"
     if not config.control.step_adjustment:
         return "likely cause: step adjustment is off (the DCM error grows unchecked)"
     return "no feasibility warning for this plan"
+
+
+def main_warning(warnings: Sequence[PlanWarning]) -> PlanWarning:
+    """The warning the walk meets first (a warning of the whole plan before any footstep's; on
+    a tie, the one whose setting most warnings name): a fall early in a walk whose every step
+    swings too fast is the swing's, not a late footstep's reach."""
+    named = [w.setting for w in warnings if w.setting]
+
+    def rank(w: PlanWarning) -> tuple[int, int]:
+        return (w.step if w.step is not None else -1, -named.count(w.setting))
+
+    return min(warnings, key=rank)
+
+
+def setting_to_change(warnings: Sequence[PlanWarning], config: Config) -> str:
+    """The setting to change after repeated falls without a push: the main warning's (the one
+    the walk meets first), else the one the settings point at."""
+    with_setting = [w for w in warnings if w.setting]
+    if with_setting:
+        return main_warning(with_setting).setting
+    spec = load_robot(config.robot.model).spec
+    if abs(config.gait.step_length) >= 0.9 * spec.max_step_length_m:
+        return "gait.step_length"
+    if not config.control.step_adjustment:
+        return "control.step_adjustment"
+    return "gait.t_ss"
 
 
 class FeasibilityPanel:

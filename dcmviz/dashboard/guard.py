@@ -47,6 +47,11 @@ def clean_value(handle: Any, value: Any) -> Any:
         if value is not True:
             raise Rejected(f"{name}: a button only takes a click")
         return True
+    if isinstance(handle, viser.GuiButtonGroupHandle):  # a click on one of its buttons
+        options = tuple(handle.options)
+        if not isinstance(value, str) or value not in options:
+            raise Rejected(f"{name} = {value!r}: allowed {', '.join(options)}")
+        return value
     if isinstance(handle, viser.GuiCheckboxHandle):
         if not isinstance(value, bool):
             raise Rejected(f"{name} = {value!r}: must be true or false")
@@ -130,6 +135,7 @@ def install_guard(
                 notify(client_id, "Message refused", f"malformed GUI message: {err!r}"[:300])
             return
         changed = changed_in_meaning(updates["value"], value)
+        updates_sent = updates["value"]
         message.updates = {"value": value}
         await original(client_id, message)
         if changed:  # the sender still shows what it typed: send everyone the stored value
@@ -137,7 +143,11 @@ def install_guard(
             if notify is not None:
                 lo, hi = getattr(handle, "min", None), getattr(handle, "max", None)
                 allowed = f" (allowed {lo} to {hi})" if lo is not None and hi is not None else ""
-                notify(client_id, "Value changed", f"{_label(handle)} set to {value}{allowed}")
+                sent = updates_sent if isinstance(updates_sent, numbers.Real) else "that"
+                notify(
+                    client_id, "Value changed",
+                    f"{_label(handle)} = {sent} is not allowed here: set to {value}{allowed}",
+                )  # fmt: skip
 
     ws.unregister_handler(_messages.GuiUpdateMessage, original)
     ws.register_handler(_messages.GuiUpdateMessage, guarded)

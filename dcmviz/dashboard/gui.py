@@ -29,7 +29,7 @@ class SliderSpec:
 
 
 FOOTSTEP_SLIDERS = (
-    SliderSpec("gait", "n_steps", 1, hi=40),
+    SliderSpec("gait", "n_steps", 1),
     SliderSpec("gait", "step_length", 0.01),
     SliderSpec("gait", "step_width", 0.01),
     SliderSpec("gait", "step_height", 0.01),
@@ -43,7 +43,7 @@ DCM_SLIDERS = (SliderSpec("dcm", "b", 0.001),)
 CONTROL_SLIDERS = (
     SliderSpec("control", "k_xi", 0.1),
     SliderSpec("control", "max_step_adjustment", 0.01),
-    SliderSpec("control", "k_f", 0.5, hi=100.0),
+    SliderSpec("control", "k_f", 0.5),
 )
 # geometric fields: changing one regenerates the footsteps (drops dragged, explicit ones)
 GEOMETRY_FIELDS = {"n_steps", "step_length", "step_width", "step_height", "turn", "first_swing"}
@@ -62,6 +62,7 @@ ROBOT_BOUNDS: dict[tuple[str, str], Callable[[RobotSpec], tuple[float, float]]] 
     ("gait", "step_length"): lambda r: (-r.max_step_length_m, r.max_step_length_m),
     ("gait", "step_width"): lambda r: (r.min_step_width_m, r.max_step_width_m),
     ("gait", "step_height"): lambda r: (-r.max_step_height_m, r.max_step_height_m),
+    ("gait", "turn"): lambda r: (-r.max_turn_rad, r.max_turn_rad),
     ("dcm", "b"): lambda r: r.b_range_s,
 }
 
@@ -196,6 +197,19 @@ class Controls:
             lo, hi = slider_range(spec, robot)
             if (handle.min, handle.max) != (lo, hi):
                 handle.min, handle.max = lo, hi
+
+    def apply_ranges(self, ranges: dict[tuple[str, str], tuple[float, float]]) -> None:
+        """Set slider ranges (from :func:`dcmviz.dashboard.ranges.valid_range`)."""
+        for key, (lo, hi) in ranges.items():
+            handle = self.handles.get(key)
+            if handle is not None and (handle.min, handle.max) != (lo, hi):
+                handle.min, handle.max = lo, hi
+
+    def static_range(self, section: str, name: str) -> tuple[float, float, float]:
+        """(min, max, step) of a slider for the robot alone (the schema within its reach)."""
+        spec = next(s for s in ALL_SLIDERS if (s.section, s.name) == (section, name))
+        lo, hi = slider_range(spec, self.robot)
+        return lo, hi, spec.step
 
     def show(self, config: Config) -> None:
         """Write a config into the controls without triggering the change callbacks."""

@@ -55,6 +55,8 @@ class PlanView:
         self.on_footstep_moved = on_footstep_moved
         self.plan: GaitPlan | None = None  # the plan drawn
         self.data: PreviewData | None = None  # its samples
+        self.kept: PreviewData | None = None  # the preview kept to compare against (A)
+        self._checked: GaitPlan | None = None  # the nominal plan the warnings are of
         self.drawn_plan_version = -1
         self.drawn_version = -1  # newest config version whose walk is drawn
         self.draws = 0
@@ -95,7 +97,7 @@ class PlanView:
         drew = False
         cpu0 = time.thread_time()
         if snap.plan is not None and snap.plan_version != self.drawn_plan_version:
-            self.draw_plan(snap.plan, snap.status.robot)
+            self.draw_plan(snap.plan, snap.status.robot, snap.nominal_plan)
             self.drawn_plan_version = snap.plan_version
             drew = True
         if snap.status.version > self.drawn_version or drew:
@@ -124,10 +126,21 @@ class PlanView:
         return True
 
     # -- drawing --------------------------------------------------------------------------------
-    def draw_plan(self, plan: GaitPlan, robot: Robot) -> PreviewData:
-        """Sample the plan and redraw the 3-D preview, the gizmos and the Fig. 1a plots."""
+    def draw_plan(
+        self, plan: GaitPlan, robot: Robot, nominal: GaitPlan | None = None
+    ) -> PreviewData:
+        """Sample the plan and redraw the 3-D preview, the gizmos and the Fig. 1a plots.
+
+        The feasibility warnings are those of the ``nominal`` plan (the settings' plan, default
+        ``plan``), checked once per nominal plan: a footstep that step adjustment moved is the
+        recovery's doing, not a setting to blame (and would change the count at every landing)."""
         data = preview_data(plan, robot.spec)
-        warnings = plan_warnings(plan, self.config()) if self.config is not None else ()
+        nominal = plan if nominal is None else nominal
+        if nominal is self._checked:
+            warnings = self.warnings
+        else:
+            warnings = plan_warnings(nominal, self.config()) if self.config is not None else ()
+            self._checked = nominal
         steps = {w.step for w in warnings if w.step is not None}
         waypoints = sorted({w.waypoint for w in warnings if w.waypoint is not None})
         with self._draw_lock:
@@ -146,6 +159,21 @@ class PlanView:
             self.draw_gizmos()
             self.plots.draw(data)
         return data
+
+    def keep(self) -> PreviewData | None:
+        """Keep the preview drawn now as A: it stays drawn (grey, in 3-D and in the Fig. 1a
+        plots) to compare the next settings against."""
+        with self._draw_lock:
+            self.kept = self.data
+            draw.draw_kept(self.server.scene, self.kept)
+            self.plots.set_ghost(self.kept)
+        return self.kept
+
+    def clear_kept(self) -> None:
+        with self._draw_lock:
+            self.kept = None
+            draw.draw_kept(self.server.scene, None)
+            self.plots.set_ghost(None)
 
     def draw_gizmos(self) -> None:
         """One translation gizmo per footstep of the drawn plan (xy plane) when enabled."""

@@ -1,7 +1,9 @@
-"""Panel plots (uPlot): the preview's VRP and DCM over time (the paper's Fig. 1a) and the live
-measured / reference / adjusted DCM of the simulation."""
+"""Panel plots (uPlot): the preview's VRP and DCM over time (the paper's Fig. 1a), with a kept
+preview (A) to compare against, and the live signals of the simulation, chosen by the user."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 import viser
@@ -13,18 +15,31 @@ from dcmviz.session.signals import SIGNALS
 AXES = ("x", "y", "z")
 VRP_STROKE = "#f08c1e"
 DCM_STROKE = SIGNALS["dcm"].hex
-MEASURED_STROKE = SIGNALS["xi"].hex
-REF_STROKE = SIGNALS["xi_ref"].hex
-ADJ_STROKE = SIGNALS["xi_adj"].hex
+GHOST_STROKE = "#9a9a9a"  # the kept preview (A) and its footsteps: grey
 ERROR_STROKE = SIGNALS["dcm_error"].hex
-LIVE_POINTS = 200  # samples per live series (8 s in a 400 px wide panel: 25 a second)
+COP_STROKE = "#8c564b"
+LIVE_POINTS = 300  # samples per live series
 PREVIEW_POINTS = 250  # samples per preview series
 PLOT_TOLERANCE = 2e-3  # m (and s): a preview plot whose samples all moved less is not re-sent
 
+# the live plot's signals: key in the plot window → (label, stroke, scale, dash, shown at first)
+LIVE_SIGNALS: dict[str, tuple[str, str, str, list[float] | None, bool]] = {
+    "xi": ("ξ", SIGNALS["xi"].hex, "m", None, True),
+    "xi_ref": ("ξ_ref", SIGNALS["xi_ref"].hex, "m", [6, 4], True),
+    "xi_adj": ("ξ_adj", SIGNALS["xi_adj"].hex, "m", None, True),
+    "v_cmd": ("v_cmd", SIGNALS["v_cmd"].hex, "m", None, False),
+    "com": ("CoM x", SIGNALS["com"].hex, "m", None, False),
+    "cop": ("CoP", COP_STROKE, "m", None, False),
+    "f_hat": ("F̂", SIGNALS["f_hat"].hex, "N", None, False),
+    "f_ext": ("F_ext", SIGNALS["f_ext"].hex, "N", None, False),
+}
+
 
 def thin(n: int, points: int) -> slice:
-    """Every k-th of ``n`` samples so that at most about ``points`` remain (the last kept)."""
-    return slice(None, None, max(1, -(-n // points)))
+    """Every k-th of ``n`` samples so that at most about ``points`` remain, counted from the
+    end: the last sample (the frame shown) is always kept."""
+    k = max(1, -(-n // points))
+    return slice((n - 1) % k, None, k)
 
 
 def f32(x: np.ndarray, every: slice) -> np.ndarray:
@@ -32,8 +47,8 @@ def f32(x: np.ndarray, every: slice) -> np.ndarray:
     return np.ascontiguousarray(np.asarray(x)[every], np.float32)
 
 
-def _series(label: str, stroke: str, dash: list[float] | None = None) -> uplot.Series:
-    s: dict = {"label": label, "stroke": stroke, "width": 2}
+def _series(label: str, stroke: str, dash: list[float] | None = None, **extra) -> uplot.Series:
+    s: dict = {"label": label, "stroke": stroke, "width": 2, **extra}
     if dash:
         s["dash"] = dash
     return s  # type: ignore[return-value]
@@ -44,18 +59,16 @@ def _axes(y_label: str) -> tuple[uplot.Axis, uplot.Axis]:
 
 
 class PreviewPlots:
-    """Three uPlots (x, y, z): VRP v(t) and DCM ξ(t) of the preview, eqs. (13), (16)."""
+    """Three uPlots (x, y, z): VRP v(t) and DCM ξ(t) of the preview, eqs. (13), (16), and those
+    of the kept preview A (grey, dashed) when there is one."""
 
     def __init__(self, gui: viser.GuiApi) -> None:
-        empty = (np.zeros(2), np.zeros(2), np.zeros(2))
+        empty = (np.zeros(2),) * 5
+        self.ghost: PreviewData | None = None
         self.handles = [
             gui.add_uplot(
                 empty,
-                (
-                    {"label": "t"},
-                    _series(f"v_{a}", VRP_STROKE),
-                    _series(f"ξ_{a}", DCM_STROKE),
-                ),
+                self._series_of(a, False),
                 title=f"preview {a} [m]",
                 axes=_axes(f"{a} [m]"),
                 scales={"x": {"time": False}},  # type: ignore[dict-item]
@@ -63,42 +76,75 @@ class PreviewPlots:
             )
             for a in AXES
         ]
+        self._data: PreviewData | None = None
 
-    def draw(self, data: PreviewData) -> None:
+    @staticmethod
+    def _series_of(axis: str, ghost: bool) -> tuple:
+        return (
+            {"label": "t"},
+            _series(f"v_{axis}", VRP_STROKE),
+            _series(f"ξ_{axis}", DCM_STROKE),
+            _series(f"A: v_{axis}", GHOST_STROKE, [4, 4], show=ghost),
+            _series(f"A: ξ_{axis}", GHOST_STROKE, [10, 4], show=ghost),
+        )
+
+    def set_ghost(self, ghost: PreviewData | None) -> None:
+        """Compare against ``ghost`` (None: no comparison) from the next draw on."""
+        self.ghost = ghost
+        for axis, handle in zip(AXES, self.handles, strict=True):
+            handle.series = self._series_of(axis, ghost is not None)
+        if self._data is not None:
+            self.draw(self._data, force=True)
+
+    def draw(self, data: PreviewData, force: bool = False) -> None:
         """Replace the data of the three plots (each only if it changed by more than
         PLOT_TOLERANCE, far below a pixel: a touchdown moves the walked plan by ~1 mm)."""
+        self._data = data
         every = thin(len(data.t), PREVIEW_POINTS)
         t = f32(data.t, every)
+        ghost = self.ghost
         for i, handle in enumerate(self.handles):
-            new = (t, f32(data.vrp[:, i], every), f32(data.dcm[:, i], every))
+            v, xi = f32(data.vrp[:, i], every), f32(data.dcm[:, i], every)
+            if ghost is not None:  # on this preview's times (outside A's: its ends held)
+                gv = np.interp(t, ghost.t, ghost.vrp[:, i]).astype(np.float32)
+                gx = np.interp(t, ghost.t, ghost.dcm[:, i]).astype(np.float32)
+            else:
+                gv, gx = v, xi
+            new = (t, v, xi, gv, gx)
             old = handle.data
-            if len(old) == 3 and all(
-                np.shape(a) == b.shape
-                and (b.size == 0 or float(np.abs(np.asarray(a) - b).max()) <= PLOT_TOLERANCE)
-                for a, b in zip(old, new, strict=True)
+            if (
+                not force
+                and len(old) == 5
+                and all(
+                    np.shape(a) == b.shape
+                    and (b.size == 0 or float(np.abs(np.asarray(a) - b).max()) <= PLOT_TOLERANCE)
+                    for a, b in zip(old, new, strict=True)
+                )
             ):
                 continue
             handle.data = new
 
 
 class LivePlot:
-    """Measured vs reference vs adjusted DCM along one axis, and the DCM error norm."""
+    """The simulation's signals along one axis over a window before the frame shown (the user
+    picks which), and the DCM error norm."""
 
     def __init__(self, gui: viser.GuiApi, axis: str = "y") -> None:
         self.axis = axis
-        empty = (np.zeros(2),) * 4
-        self.dcm = gui.add_uplot(
+        self.shown = {key: spec[4] for key, spec in LIVE_SIGNALS.items()}
+        self.history: dict[str, np.ndarray] = {}
+        empty = (np.zeros(2),) * (1 + len(LIVE_SIGNALS))
+        self.signals = gui.add_uplot(
             empty,
-            (
-                {"label": "t"},
-                _series("ξ", MEASURED_STROKE),
-                _series("ξ_ref", REF_STROKE, [6, 4]),
-                _series("ξ_adj", ADJ_STROKE),
-            ),
-            title=f"DCM {axis} [m]",
-            axes=_axes(f"ξ_{axis} [m]"),
-            scales={"x": {"time": False}},  # type: ignore[dict-item]
-            height=160,
+            self._series(),
+            title=f"signals {axis}",
+            axes=(
+                {"label": "t [s]", "size": 30},
+                {"label": f"{axis} [m]", "size": 48, "scale": "m"},
+                {"label": "[N]", "size": 40, "scale": "N", "side": 1, "grid": {"show": False}},
+            ),  # type: ignore[arg-type]
+            scales={"x": {"time": False}, "m": {"auto": True}, "N": {"auto": True}},  # type: ignore[dict-item]
+            height=190,
         )
         self.error = gui.add_uplot(
             (np.zeros(2), np.zeros(2)),
@@ -109,20 +155,61 @@ class LivePlot:
             height=120,
         )
 
+    def _series(self) -> tuple:
+        out: list = [{"label": "t"}]
+        for key, (label, stroke, scale, dash, _) in LIVE_SIGNALS.items():
+            name = label if key != "com" else "CoM"
+            out.append(_series(name, stroke, dash, scale=scale, show=self.shown[key]))
+        return tuple(out)
+
     def set_axis(self, axis: str) -> None:
         self.axis = axis
-        self.dcm.title = f"DCM {axis} [m]"
+        self.signals.title = f"signals {axis}"
+        self.draw(self.history)
+
+    def show(self, key: str, shown: bool) -> None:
+        """Show or hide one signal."""
+        self.shown[key] = bool(shown)
+        self.signals.series = self._series()
 
     def draw(self, history: dict[str, np.ndarray]) -> None:
-        """Plot the history window (arrays of equal length; t plus (N, 3) DCMs and (N,) error)."""
+        """Plot a plot window (``t`` plus (N, 3) signals and the (N,) error)."""
+        self.history = history
         t = history.get("t")
         if t is None or len(t) < 2:
             return
         i = AXES.index(self.axis)
         every = thin(len(t), LIVE_POINTS)
-        t = f32(t, every)
-        self.dcm.data = (t, *(f32(history[k][:, i], every) for k in ("xi", "xi_ref", "xi_adj")))
-        self.error.data = (t, f32(history["dcm_error"], every))
+        ts = f32(t, every)
+        columns = []
+        for key in LIVE_SIGNALS:
+            values = history.get(key)
+            columns.append(f32(values[:, i], every) if values is not None else np.zeros_like(ts))
+        self.signals.data = (ts, *columns)
+        self.error.data = (ts, f32(history["dcm_error"], every))
+
+
+def live_controls(gui: viser.GuiApi, plot: LivePlot, on_window: Callable[[float], None]) -> dict:
+    """The live plot's controls: axis, one checkbox per signal, the window (s)."""
+    handles: dict = {}
+    handles["axis"] = gui.add_dropdown("axis", AXES, initial_value=plot.axis)
+    handles["axis"].on_update(lambda e: plot.set_axis(e.target.value))
+    handles["window"] = gui.add_slider(
+        "window [s]", min=1.0, max=60.0, step=1.0, initial_value=8.0,
+        hint="How much of the time before the frame shown the plot spans (the buffer keeps 60 s)",
+    )  # fmt: skip
+    handles["window"].on_update(lambda e: on_window(float(e.target.value)))
+    with gui.add_folder("signals", expand_by_default=True):
+        for key, (label, _, _, _, shown) in LIVE_SIGNALS.items():
+            box = gui.add_checkbox(
+                {"com": "CoM x", "cop": "measured CoP"}.get(key, label),
+                initial_value=shown,
+                hint=SIGNALS[key].description if key in SIGNALS else "centre of pressure of "
+                "the measured contact forces",
+            )  # fmt: skip
+            box.on_update(lambda e, k=key: plot.show(k, e.target.value))
+            handles[key] = box
+    return handles
 
 
 def phase_legend() -> str:
@@ -135,5 +222,6 @@ def phase_legend() -> str:
         "<small>VRP by phase: "
         + " ".join(items)
         + f" · <span style='color:{DCM_STROKE}'>━</span> DCM"
+        + f" · <span style='color:{GHOST_STROKE}'>┅</span> kept preview A"
         "</small>"
     )

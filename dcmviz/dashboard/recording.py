@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import shutil
+import socket
 import tempfile
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -17,9 +19,18 @@ from dcmviz.record import Recorder
 from dcmviz.robots.heap import release_freed_memory
 
 
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on right now."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
 class RecordingPanel:
-    """Handle ``gui_record``: ticking starts a :class:`~dcmviz.record.Recorder` on the simulation
-    thread, unticking stops it and sends the ``.rrd``."""
+    """Handles ``gui_record``, ``gui_live`` and ``gui_progress``: ticking Record starts a
+    :class:`~dcmviz.record.Recorder` on the simulation thread (also served live to rerun viewers
+    when ``gui_live`` is ticked), unticking stops it and sends the ``.rrd``; while it runs the
+    panel shows its length and size."""
 
     def __init__(
         self,
@@ -33,6 +44,8 @@ class RecordingPanel:
         self.name = name  # the current preset's name, for the file name
         self.recorder: Recorder | None = None
         self.failures = 0  # recordings stopped by an exception in the recorder
+        self._started = 0.0
+        self._shown = ""
         with gui.add_folder("Recording"):
             self.gui_record = gui.add_checkbox(
                 "Record (rerun)", initial_value=False,
@@ -43,6 +56,12 @@ class RecordingPanel:
                     "Record", lambda event: self.on_record(event.target.value, event.client)
                 )
             )
+            self.gui_live = gui.add_checkbox(
+                "Live stream to a rerun viewer", initial_value=True,
+                hint="While recording, serve it on 127.0.0.1 so `rerun rerun+http://…/proxy` "
+                "shows it live (the address appears below)",
+            )  # fmt: skip
+            self.gui_progress = gui.add_markdown("<small>not recording</small>")
 
     def on_record(self, recording: bool, client: viser.ClientHandle | None) -> bytes | None:
         """Start a recording, or stop it and return (and send) the .rrd bytes."""
@@ -54,15 +73,43 @@ class RecordingPanel:
         recorder = Recorder()
         path = Path(tempfile.mkdtemp(prefix="dcmviz-")) / (slug(self.name()) + ".rrd")
         recorder.on_tick = self._contained(recorder, path)  # the session subscribes this
+        port = free_port() if self.gui_live.value else None
         try:
-            self.loop.call(lambda session: recorder.start(session, path))
+            self.loop.call(lambda session: recorder.start(session, path, serve_port=port))
         except Exception as err:  # noqa: BLE001 - tell the user, keep the session running
             self.notifier.notify(client, "Recording failed", str(err), error=True)
             shutil.rmtree(path.parent, ignore_errors=True)
             self.gui_record.value = False
             return None
         self.recorder = recorder if recorder.recording else None  # (it may have failed already)
+        self._started = time.monotonic()
+        self.refresh()
         return None
+
+    def progress(self) -> str:
+        """What the running recording holds: its length (simulated and wall), its file size,
+        and where a rerun viewer connects to it live."""
+        recorder = self.recorder
+        if recorder is None or recorder.path is None:
+            return "<small>not recording</small>"
+        try:
+            size = recorder.path.stat().st_size
+        except OSError:
+            size = 0
+        text = (
+            f"<small>● recording {time.monotonic() - self._started:.0f} s, "
+            f"{recorder.samples * recorder.log_dt_s:.1f} s of walk, {size / 1e6:.1f} MB"
+        )
+        if recorder.url:
+            text += f"; live: `rerun {recorder.url}`"
+        return text + "</small>"
+
+    def refresh(self) -> None:
+        """Rewrite the progress line if it changed (the render thread calls it every second)."""
+        text = self.progress()
+        if text != self._shown:
+            self._shown = text
+            self.gui_progress.content = text
 
     def _contained(self, recorder: Recorder, path: Path) -> Callable[[Any], None]:
         """The recorder's per-tick logging; an exception in it ends the recording (told to
@@ -110,4 +157,5 @@ class RecordingPanel:
             client.send_file_download(path.name, data, save_immediately=True)
         self.notifier.notify(client, "Recording ready", f"{path.name}: {recorder.samples} samples")
         release_freed_memory()  # the recorder's buffers (the .rrd is several MB)
+        self.refresh()
         return data

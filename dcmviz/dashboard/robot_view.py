@@ -21,6 +21,7 @@ from dcmviz.robots import Robot
 from dcmviz.robots.pose import RobotPose
 
 BodyClick = Callable[[str, viser.SceneNodePointerEvent], object]
+BodyDrag = Callable[[str, viser.SceneNodeDragEvent], object]
 MOVE_TOLERANCE = 2e-4  # m (and quaternion components, ≈ 0.02°): smaller changes are not sent
 DEFAULT_BODY = "pelvis"
 
@@ -84,6 +85,13 @@ def _click(body: str, callback: BodyClick) -> Callable[[viser.SceneNodePointerEv
     return lambda event: callback(body, event)
 
 
+def _drag(body: str, callback: BodyDrag) -> Callable:
+    async def on_drag(event: viser.SceneNodeDragEvent) -> None:  # async: phases in order
+        callback(body, event)
+
+    return on_drag
+
+
 class RobotView:
     """One humanoid under ``/robot``; :meth:`update` poses it from a :class:`RobotPose`."""
 
@@ -92,6 +100,7 @@ class RobotView:
         server: viser.ViserServer,
         robot: Robot,
         on_body_click: BodyClick | None = None,
+        on_body_drag: BodyDrag | None = None,
     ) -> None:
         self.server = server
         self.visual = visual = robot.visual
@@ -122,6 +131,8 @@ class RobotView:
                 )  # fmt: skip
                 if on_body_click is not None:
                     handle.on_click(_click(self.bodies[i], on_body_click))
+                if on_body_drag is not None:
+                    handle.on_drag("left")(_drag(self.bodies[i], on_body_drag))
                 self.meshes[i] = handle
         self._base = (np.full(3, np.inf), np.zeros(4))
 

@@ -26,6 +26,18 @@ COMMANDED_VRP_COLOR = signal_color("v_cmd")
 FORCE_COLOR = signal_color("f_ext")
 OBSERVER_COLOR = signal_color("f_hat")
 GHOST_COLOR = FOOTSTEP_COLORS["adjusted"]
+COP_COLOR = (140, 86, 75)  # measured centre of pressure and contact forces
+KEPT_COLOR = (150, 150, 150)  # the kept preview A (A/B comparison)
+FRAME_LOOK_AT_HEIGHT_M = 0.55  # "Frame robot": look at this height above the robot's ground
+FRAME_OFFSET = np.array([3.4, 1.4, 1.8])  # … from this far (front-left, above: the floor
+# around the feet shows, as in the first view)
+# "Frame robot" looks at a point this far (x, y) to the right of the robot (1.2 m along the
+# view's right): the canvas spans the page right of the plot panel and the control panel floats
+# over its right third, so the robot is drawn in the middle of what is free
+_RIGHT = np.cross(-FRAME_OFFSET, [0.0, 0.0, 1.0])[:2]
+FRAME_SHIFT = 1.2 * _RIGHT / np.linalg.norm(_RIGHT)
+FIRST_LOOK_AT = np.array([0.56, 0.87])  # the first view's (the walk's first metres in the
+# free part)
 REALISED_COLOR = FOOTSTEP_COLORS["realised"]
 SOLE_THICKNESS_M = 0.006
 NEWTONS_PER_METRE = 100.0  # arrow length scale: 100 N ↔ 1 m
@@ -171,6 +183,30 @@ def draw_preview(scene: viser.SceneApi, data: PreviewData) -> None:
         )  # fmt: skip
 
 
+def draw_kept(scene: viser.SceneApi, data: PreviewData | None) -> None:
+    """The kept preview A (grey): its DCM, its VRP and its footsteps, to compare the preview
+    drawn now against (None removes it)."""
+    if data is None:
+        if not shown(scene, "/kept", (), ("empty",)):
+            scene.add_frame("/kept", show_axes=False)  # replaces the node and its children
+            forget(scene, "/kept/")
+        return
+    shown(scene, "/kept", (), ("kept",))
+    dcm = data.dcm[:: max(1, len(data.dcm) // SPLINE_POINTS)].astype(np.float32)
+    if not shown(scene, "/kept/dcm", (dcm,), ("dcm",)):
+        scene.add_spline_catmull_rom(
+            "/kept/dcm", dcm, color=KEPT_COLOR, thickness=3.0, thickness_units="screen"
+        )
+    vrp = data.vrp[:: max(1, len(data.vrp) // SPLINE_POINTS)].astype(np.float32)
+    if not shown(scene, "/kept/vrp", (vrp,), ("vrp",)):
+        scene.add_spline_catmull_rom(
+            "/kept/vrp", vrp, color=(190, 190, 190), thickness=2.0, thickness_units="screen"
+        )
+    soles = [s for s in data.soles if s.index >= 0]
+    _draw_soles(scene, "/kept/soles", soles, data.foot_length, data.foot_width, KEPT_COLOR,
+                opacity=0.35, lift=0.002)  # fmt: skip
+
+
 WARNING_COLOR = (230, 20, 20)
 
 
@@ -212,14 +248,19 @@ def draw_step_markers(
     _draw_soles(scene, name, soles, length, width, color, opacity=opacity, lift=lift)
 
 
-# what the colours mean (markdown for the panel)
+# what the colours mean (markdown above the panel's tabs: always in sight)
 SCENE_LEGEND = (
-    "<small>On the floor (shifted down by Δz_vrp): "
-    f"<span style='color:{SIGNALS['xi'].hex}'>●</span> measured DCM ξ · "
-    f"<span style='color:{SIGNALS['xi_adj'].hex}'>●</span> adapted DCM ξ_adj · "
-    f"<span style='color:{SIGNALS['v_cmd'].hex}'>●</span> commanded VRP. Footsteps: "
-    f"<span style='color:{SIGNALS['xi_adj'].hex}'>▭</span> adjusted (ghosts) · "
-    "<span style='color:#3c3c3c'>▬</span> realised.</small>"
+    "<small>Dots on pins above their ground points (Δz_vrp below the CoM): "
+    f"<span style='color:{SIGNALS['xi'].hex}'>●</span> ξ · "
+    f"<span style='color:{SIGNALS['xi_adj'].hex}'>●</span> ξ_adj · "
+    f"<span style='color:{SIGNALS['v_cmd'].hex}'>●</span> v_cmd · "
+    "<span style='color:#8c564b'>●↑</span> measured CoP, contact forces · "
+    f"<span style='color:{SIGNALS['f_ext'].hex}'>→</span> F_ext (push, drag) · "
+    f"<span style='color:{SIGNALS['f_hat'].hex}'>→</span> F̂ (observer, above the head). "
+    "Footsteps: "
+    f"<span style='color:{SIGNALS['xi_adj'].hex}'>▭</span> adjusted · "
+    "<span style='color:#3c3c3c'>▬</span> realised · "
+    "<span style='color:#969696'>▭</span> kept preview A.</small>"
 )
 
 
@@ -242,5 +283,6 @@ def draw_ground(server: viser.ViserServer) -> None:
     # the middle of the view, between the plot panel (left) and the control panel (right)
     # (the canvas spans everything right of the plot panel; the control panel floats over its
     # right third, so the view is shifted ~0.9 m sideways to centre the walk in the free part)
-    camera.position = (4.26, 2.37, 1.7)
-    camera.look_at = (0.56, 0.87, 0.55)
+    look_at = np.array([*FIRST_LOOK_AT, FRAME_LOOK_AT_HEIGHT_M])
+    camera.position = tuple(look_at + FRAME_OFFSET)  # high enough to see the floor by the feet
+    camera.look_at = tuple(look_at)

@@ -1,4 +1,4 @@
-"""The Simulation folder: play/pause, reset, speed, walk mode, backend, robot, looping, camera."""
+"""The Simulation folder: reset, speed, walk mode, backend, robot, looping."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import viser
 from dcmviz.config import Config
 from dcmviz.dashboard.gui import Controls
 from dcmviz.dashboard.loop import SimLoop
+from dcmviz.dashboard.time_panel import TimePanel
 from dcmviz.robots import BUILTIN_ROBOTS
 
 
@@ -17,16 +18,20 @@ def robot_options(config: Config) -> tuple[str, ...]:
 
 
 class SimPanel:
-    """Handles ``gui_play``, ``gui_reset``, ``gui_speed``, ``gui_loop``, ``gui_follow``; the mode,
-    backend and robot dropdowns are config fields (they go through :class:`Controls`)."""
+    """Handles ``gui_reset``, ``gui_speed``, ``gui_loop``; the mode, backend and robot dropdowns
+    are config fields (they go through :class:`Controls`); play/pause is the Time folder's."""
 
     def __init__(
-        self, gui: viser.GuiApi, loop: SimLoop, controls: Controls, config: Config
+        self,
+        gui: viser.GuiApi,
+        loop: SimLoop,
+        controls: Controls,
+        config: Config,
+        time_panel: TimePanel,
     ) -> None:
         self.loop = loop
+        self.time_panel = time_panel
         with gui.add_folder("Simulation"):
-            self.gui_play = gui.add_button("Pause", icon=viser.Icon.PLAYER_PAUSE)
-            self.gui_play.on_click(lambda event: self.on_play(not self.loop.playing))
             self.gui_reset = gui.add_button("Reset", icon=viser.Icon.REFRESH)
             self.gui_reset.on_click(lambda event: self.on_reset())
             self.gui_speed = gui.add_slider(
@@ -41,16 +46,9 @@ class SimPanel:
                 "Loop the plan", initial_value=True, hint="Restart when the plan has ended"
             )
             self.gui_loop.on_update(lambda event: self.loop.post("loop", event.target.value))
-            self.gui_follow = gui.add_checkbox(
-                "Camera follows the robot", initial_value=False,
-                hint="Every open view keeps its angle and moves with the robot",
-            )  # fmt: skip
 
     def on_play(self, playing: bool) -> None:
-        self.loop.post("play", playing)
-        self.loop.playing = playing  # the button label follows at once
-        self.gui_play.label = "Pause" if playing else "Play"
-        self.gui_play.icon = viser.Icon.PLAYER_PAUSE if playing else viser.Icon.PLAYER_PLAY
+        self.time_panel.on_play(playing)
 
     def on_reset(self) -> None:
         self.loop.post("reset")

@@ -1,6 +1,11 @@
 """The status line above the panel: preset, robot, backend, time, speed, falls, walk state, and
 for a few seconds after a config change what it did ("gains changed (walk continues)" or
-"restarted: gait changed")."""
+"restarted: gait changed").
+
+The render thread writes it whenever anything but the clock changed (the walk state, a fall, the
+warnings, a push) in the same frame as the scene, so the line, the panel and the 3-D view always
+tell the same; the clock alone is rewritten at most once a second.
+"""
 
 from __future__ import annotations
 
@@ -14,13 +19,18 @@ NOTE_SHOW_S = 5.0  # wall seconds a change's note stays in the status line
 
 
 def walk_state(snap: Snapshot) -> str:
-    if snap.status.fallen:
-        return "fallen"
-    if snap.status.held and snap.status.playing:
+    st = snap.status
+    if st.fallen:
+        return "fallen (resetting)"
+    if st.held and st.playing:
         return "about to walk"
+    if st.frame is not None:
+        return "playing back the buffer" if st.playing else "paused (scrubbed back)"
+    if not st.playing:
+        return f"paused: {st.paused_reason}" if st.paused_reason else "paused"
     if snap.tick is not None and snap.tick.done:
         return "standing (plan done)"
-    return "walking" if snap.status.playing else "paused"
+    return "walking"
 
 
 class StatusLine:
@@ -30,11 +40,11 @@ class StatusLine:
         self,
         handle: viser.GuiMarkdownHandle,
         name: Callable[[], str],
-        extra: Callable[[], str] | None = None,
+        extra: Callable[[Snapshot], str] | None = None,
     ) -> None:
         self.handle = handle
         self.name = name  # the current preset's name
-        self.extra = extra  # further lines (feasibility warnings, what a click pushes)
+        self.extra = extra  # further lines (feasibility warnings, a push, advice after falls)
         self._note_seq = 0
         self._note_since = -float("inf")
 
@@ -49,17 +59,22 @@ class StatusLine:
         """A config change was noted since the line was last written."""
         return snap.status.note_seq != self._note_seq
 
-    def text(self, snap: Snapshot, fps: float, now: float) -> str:
-        speed = (
-            f"real-time ×{snap.status.real_time_factor:4.2f} · {fps:4.1f} fps · "
-            if snap.status.playing and not snap.status.fallen and not snap.status.held
-            else ""
-        )
+    def text(self, snap: Snapshot, fps: float, now: float, *, clock: bool = True) -> str:
+        """The markdown; without ``clock`` the numbers that change every frame are left out
+        (what the render thread compares to decide whether to write at once)."""
+        st = snap.status
+        live = st.playing and not st.fallen and not st.held and st.frame is None
+        if clock:
+            speed = f"real-time ×{st.real_time_factor:4.2f} · {fps:4.1f} fps · " if live else ""
+            t = f"t = {st.t:6.2f} s · "
+        else:
+            speed, t = ("…" if live else ""), ""
         note = self.note(snap, now)
-        extra = self.extra() if self.extra is not None else ""
+        extra = self.extra(snap) if self.extra is not None else ""
+        robot = st.robot.name if st.robot else ""
         return (
-            f"**{self.name()}** · {snap.status.robot.name if snap.status.robot else ''} · {snap.status.backend}  \n"
-            f"t = {snap.status.t:6.2f} s · {speed}falls {snap.status.falls} · {walk_state(snap)}"
+            f"**{self.name()}** · {robot} · {st.backend}  \n"
+            f"{t}{speed}falls {st.falls} · {walk_state(snap)}"
             + (f"  \nlast change: *{note}*" if note else "")
             + (f"  \n{extra}" if extra else "")
         )

@@ -66,7 +66,7 @@ def polar_png(result: dict[str, Any], path: Path) -> np.ndarray:
     shown["settings"]["controllers"] = [
         c for c in result["settings"]["controllers"] if any(r["controller"] == c for r in rows)
     ]
-    plot_polar(shown, path)
+    plot_polar(shown, path, compact=True)
     image = matplotlib.image.imread(path)
     rgb = image[..., :3]
     return (rgb * 255).astype(np.uint8) if rgb.dtype != np.uint8 else rgb
@@ -180,8 +180,8 @@ class SweepPanel:
         if data is None:
             self.notifier.notify(client, "Sweep", "no finished sweep to export", error=True)
             return None
-        if client is not None:
-            client.send_file_download(f"envelope.{kind}", data)
+        if client is not None:  # saved at once: no notice left to close per export
+            client.send_file_download(f"envelope.{kind}", data, save_immediately=True)
         return data
 
     def wait(self, timeout: float | None = None) -> bool:

@@ -104,19 +104,31 @@ class Recorder:
         self.path: Path | None = None
         self.samples = 0
         self._session = None
+        self.url: str | None = None  # the live stream's address (start's serve_port)
 
     @property
     def recording(self) -> bool:
         return self.stream is not None
 
     # -- lifecycle ------------------------------------------------------------------------------
-    def start(self, session: Session, path: str | Path) -> None:
-        """Open ``path`` (.rrd), log the static scene and chain :meth:`on_tick` into the session."""
+    def start(self, session: Session, path: str | Path, *, serve_port: int | None = None) -> None:
+        """Open ``path`` (.rrd), log the static scene and chain :meth:`on_tick` into the session.
+
+        With ``serve_port`` the recording is also served live over gRPC on 127.0.0.1 at that
+        port while it runs: ``rerun rerun+http://127.0.0.1:PORT/proxy`` (:attr:`url`) connects
+        a rerun viewer, which receives everything logged so far and then the live stream."""
         if self.stream is not None:
             raise RuntimeError("Recorder.start: already recording; call stop() first")
         self.path = Path(path)
         self.stream = _open_stream()
-        self.stream.save(self.path)
+        self.url = None
+        if serve_port is None:
+            self.stream.save(self.path)
+        else:
+            server = rr.GrpcServerSink(bind_ip="127.0.0.1", port=int(serve_port),
+                                       server_memory_limit="256MiB")  # fmt: skip
+            self.stream.set_sinks(rr.FileSink(self.path), server)
+            self.url = f"rerun+http://127.0.0.1:{int(serve_port)}/proxy"
         self._session = session
         self._next_t = -math.inf
         self._last_t = -math.inf

@@ -149,8 +149,12 @@ def write_envelope(result: dict[str, Any], out: Path) -> list[Path]:
     return paths
 
 
-def plot_polar(result: dict[str, Any], path: Path) -> None:
-    """One closed curve per controller: max impulse (N·s) against push direction."""
+def plot_polar(result: dict[str, Any], path: Path, *, compact: bool = False) -> None:
+    """One closed curve per controller: max impulse (N·s) against push direction, and the
+    stance-edge bound the report's table prints (black diamonds, where the result has it).
+
+    ``compact``: a short title in a larger font, for a plot shown a few hundred pixels wide
+    (the dashboard's Sweep tab); the long one's details are in the table and the JSON."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -171,15 +175,28 @@ def plot_polar(result: dict[str, Any], path: Path) -> None:
         radius = np.array([r["max_impulse_ns"] for r in rows])
         theta, radius = np.append(theta, theta[:1]), np.append(radius, radius[:1])
         ax.plot(theta, radius, styles.get(name, "-"), label=name, lw=1.8, ms=5)
+    bound = sorted((result.get("stance_edge_bound_ns") or {}).items(), key=lambda x: float(x[0]))
+    if bound:
+        ax.plot(
+            np.radians([float(d) for d, _ in bound]), [v for _, v in bound], "kD", ms=7,
+            mfc="none", mew=1.6, label="stance-edge bound",
+        )  # fmt: skip
     ax.set_theta_zero_location("E")  # 0° = +x forward, counter-clockwise = toward +y (left)
-    ax.set_title(
-        f"{result['preset']} ({result['robot']}, {result['backend']}): max push impulse (N·s)\n"
-        f"{result['settings']['push_duration_s']} s push at "
-        f"{result['settings']['phase']:.0%} of step {result['settings']['step']}'s single "
-        f"support ({result['swing_side']} foot swinging); 0° = forward, 90° = left",
-        fontsize=9,
-    )
-    ax.legend(loc="lower left", bbox_to_anchor=(-0.12, -0.12), fontsize=8)
+    if compact:
+        ax.set_title(
+            f"max push impulse [N·s], {result['robot']}\n0° forward, 90° left", fontsize=15
+        )
+        ax.tick_params(labelsize=12)
+        ax.legend(loc="lower left", bbox_to_anchor=(-0.15, -0.17), fontsize=12)
+    else:
+        ax.set_title(
+            f"{result['preset']} ({result['robot']}, {result['backend']}): max push impulse "
+            f"(N·s)\n{result['settings']['push_duration_s']} s push at "
+            f"{result['settings']['phase']:.0%} of step {result['settings']['step']}'s single "
+            f"support ({result['swing_side']} foot swinging); 0° = forward, 90° = left",
+            fontsize=9,
+        )
+        ax.legend(loc="lower left", bbox_to_anchor=(-0.12, -0.12), fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
