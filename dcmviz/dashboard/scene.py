@@ -276,6 +276,11 @@ def draw_ground(server: viser.ViserServer) -> None:
     # no HDR environment map: while a browser decodes one (seconds in software WebGL) viser
     # draws the whole scene at 5 % opacity, so a newcomer would first see a washed-out robot
     scene.configure_environment_map(hdri=None)
+    # viser's default lights cast shadows: a shadow pass per frame made headless Chromium's
+    # software WebGL draw one frame in ~850 ms (bench/dashboard.py --latency: Talos at
+    # 1600 × 900), and every change in the page waited for it; the two lights below light the
+    # scene without shadows (~11 frames a second there; a GPU draws either at 60)
+    scene.configure_default_lights(enabled=False)
     scene.add_light_hemisphere("/light/sky", intensity=1.6)
     scene.add_light_directional("/light/sun", intensity=2.2, position=(4.0, 2.0, 5.0))
     camera = server.initial_camera
