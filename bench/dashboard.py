@@ -3,6 +3,7 @@
     PYTHONPATH=. python3 bench/dashboard.py [--preset presets/walk_forward.toml] [--seconds 10]
                                             [--clients 0,1,5] [--tabs 5] [--latency]
                                             [--screenshot PNG] [--first-view docs/dashboard.png]
+                                            [--pictures docs]
 
 0. Traffic and real time with 0, 1, 5 websocket clients that do not render
    (``bench/wsclients.py`` in its own process): messages/s and KiB/s per client, the busiest
@@ -15,6 +16,12 @@
 2. Real-time factor of the simulation (simulated / wall seconds) with the browser connected
    (target ≥ 1), and the frame rate of the scene updates (target ≥ 30 fps).
 3. Optionally a screenshot of the dashboard with the robot walking and the preview drawn.
+3b. With ``--latency``, in the browser (issue 25): input → Fig. 1a canvas, the time from the
+   Enter that submits a typed Δx to the first animation frame in which the preview plots'
+   canvases show other pixels (target ≤ 150 ms median on an idle machine), with the server-side
+   part of it; and scrubbing, the walk paused and the time slider swept through the buffer
+   (the last 60 s) at 60 seeks a second: frames the scene draws per second (target ≥ 20) and
+   the buffer's memory.
 4. ``--first-view PNG``: what a newcomer sees (the README's picture): ``python app.py``'s
    dashboard, a fresh 1400 × 800 tab opened on it, photographed a few seconds into the walk
    (headless Chromium's "software WebGL" notice closed: a browser with a GPU shows none).
@@ -41,6 +48,7 @@ import viser  # noqa: E402
 from dcmviz.config import load_preset  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
 from dcmviz.dashboard.headless import launch_chromium  # noqa: E402
+from dcmviz.dashboard.loop import CONFIG_MIN_INTERVAL_S  # noqa: E402
 
 
 def free_port() -> int:
@@ -58,8 +66,112 @@ def preview_latency(dashboard: Dashboard, n: int = 30) -> np.ndarray:
         assert dashboard.editor.on_field_change("gait", "step_length", value)
         assert dashboard.preview.wait(dashboard.version)
         out.append(time.perf_counter() - t0)
-        time.sleep(0.05)  # the simulation keeps running in between
+        # the simulation keeps running in between, and the loop adopts a config at most every
+        # CONFIG_MIN_INTERVAL_S (a dragged slider's newest waits): changes a user types are
+        # further apart than that, so the measurement spaces them so too
+        time.sleep(CONFIG_MIN_INTERVAL_S + 0.05)
     return np.array(out)
+
+
+# In the page: a loop on requestAnimationFrame that keeps a checksum of the first visible uPlot
+# canvas (the Fig. 1a tab's preview x, which a Δx change redraws; every 29th byte) and records
+# when it first differs from the one taken at arming time.
+CANVAS_WATCH_JS = """
+() => {
+  const sum = () => {
+    let h = 0;
+    const c = [...document.querySelectorAll('.uplot canvas')].find(
+      (c) => c.offsetParent !== null && c.width);  // the first visible plot: preview x
+    if (!c) return 0;
+    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    for (let i = 0; i < d.length; i += 29) h = (h * 31 + d[i]) | 0;
+    return h;
+  };
+  window.__dcmvizWatch = {armed: false, base: 0, changed: null, frames: []};
+  const w = window.__dcmvizWatch;
+  window.__dcmvizArm = () => { w.base = sum(); w.changed = null; w.armed = true;
+                               return performance.now(); };
+  const frame = () => {
+    w.frames.push(performance.now());
+    if (w.frames.length > 400) w.frames.shift();
+    if (w.armed && w.changed === null && sum() !== w.base) {
+      w.changed = performance.now(); w.armed = false;
+    }
+    requestAnimationFrame(frame);
+  };
+  requestAnimationFrame(frame);
+}
+"""
+
+
+def input_to_canvas_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndarray, np.ndarray]:
+    """(browser ms, server ms) per change: Δx typed in its number box and Enter pressed, until
+    the Fig. 1a canvases change in the page; the server's part from the editor's entry to the
+    plots sent (``PreviewWorker.latency_s``)."""
+    page.evaluate(CANVAS_WATCH_JS)
+    for button in page.locator("button.mantine-Notification-closeButton").all():
+        try:
+            button.click(timeout=2000)
+        except Exception:  # noqa: BLE001 - closed by itself meanwhile
+            pass
+    page.get_by_role("tab", name="Plan", exact=True).click()
+    uuid = dashboard.controls.handles[("gait", "step_length")]._impl.uuid
+    box = page.locator(f"[id='{uuid}']").locator("xpath=..").locator("input:not([type=hidden])")
+    box = box.first
+    box.wait_for(state="visible", timeout=10_000)
+    browser_ms, server_ms, misses = [], [], 0
+    for i in range(n):
+        value = "0.21" if i % 2 == 0 else "0.2"
+        box.fill(value)
+        page.wait_for_timeout(300)  # the page settles; only Enter submits the value
+        seen = len(dashboard.preview.latency_s)
+        t0 = page.evaluate("window.__dcmvizArm()")
+        box.press("Enter")
+        try:
+            page.wait_for_function("window.__dcmvizWatch.changed !== null", timeout=10_000)
+        except Exception:  # noqa: BLE001 - counted, not fatal: the page missed or ignored it
+            misses += 1
+            continue
+        browser_ms.append(page.evaluate("window.__dcmvizWatch.changed") - t0)
+        deadline = time.time() + 5
+        while len(dashboard.preview.latency_s) == seen and time.time() < deadline:
+            time.sleep(0.01)
+        server_ms.append(1e3 * list(dashboard.preview.latency_s.values())[-1])
+        page.wait_for_timeout(400)
+    if misses:
+        print(f"  {misses} of {n} changes not seen repainted within 10 s")
+    frames = np.diff(page.evaluate("window.__dcmvizWatch.frames"))
+    print(
+        f"  the page's animation frames meanwhile: median {np.median(frames):.0f} ms apart "
+        f"(p90 {np.percentile(frames, 90):.0f} ms): a repaint waits for the next frame, and "
+        "headless Chromium draws the 3-D scene in software WebGL"
+    )
+    return np.array(browser_ms), np.array(server_ms)
+
+
+def scrub_fps(dashboard: Dashboard, sweeps: int = 2, seconds_per_sweep: float = 3.0) -> None:
+    """Pause, then sweep the time slider through the buffer at 60 seeks a second, and print the
+    scene's frames drawn per second while it scrubs and what the buffer holds."""
+    loop, view = dashboard.loop, dashboard.view
+    dashboard.time_panel.on_play(False)
+    time.sleep(0.5)
+    span = min(60.0, loop.timeline.seconds_kept())
+    frames0, t0 = view.frames_drawn, time.perf_counter()
+    n = int(60 * seconds_per_sweep)
+    for sweep in range(sweeps):
+        for k in range(n):
+            back = span * (k / (n - 1) if sweep % 2 == 0 else 1 - k / (n - 1))
+            dashboard.time_panel.on_seek(back)
+            time.sleep(1 / 60)
+    wall = time.perf_counter() - t0
+    fps = (view.frames_drawn - frames0) / wall
+    nbytes = loop.timeline.nbytes
+    print(
+        f"scrubbing {span:.0f} s of buffer at 60 seeks/s for {wall:.1f} s: scene drawn at "
+        f"{fps:.1f} fps (target ≥ 20); buffer {nbytes / 2**20:.1f} MB allocated once"
+    )
+    loop.post("live")
+    dashboard.time_panel.on_play(True)
 
 
 def measure_rtf(
@@ -199,6 +311,8 @@ def main() -> None:
     parser.add_argument("--screenshot", default=None, help="PNG path for a dashboard screenshot")
     parser.add_argument("--no-measure", action="store_true", help="only take the screenshot")
     parser.add_argument("--first-view", default=None, help="PNG path: a newcomer's first view")
+    parser.add_argument("--pictures", default=None,
+                        help="folder: the README's scrub and drag pictures (issue 25)")  # fmt: skip
     parser.add_argument("--clients", default="0,1,5", help="websocket client counts to measure")
     parser.add_argument("--tabs", type=int, default=0, help="headless Chromium tabs to measure")
     parser.add_argument("--nice-browsers", type=int, default=0,
@@ -207,6 +321,9 @@ def main() -> None:
     parser.add_argument("--drag", action="store_true", help="real time while sliders are dragged")
     parser.add_argument("--sweep", action="store_true", help="real time during a Sweep-tab sweep")
     args = parser.parse_args()
+    if args.pictures:
+        pictures(Path(args.pictures), Path(args.preset))
+        return
     if args.first_view:
         first_view(Path(args.first_view), Path(args.preset))
         return
@@ -235,7 +352,7 @@ def main() -> None:
             url = f"http://127.0.0.1:{port}"
             chromium_tabs(dashboard, url, port, args.tabs, args.seconds, args.nice_browsers)
         snap = dashboard.loop.snapshot
-        print(f"({snap.backend}, {snap.robot}; render {dashboard.view.fps:.1f} fps; "
+        print(f"({snap.status.backend}, {snap.status.robot.name}; render {dashboard.view.fps:.1f} fps; "
               f"load average after {os.getloadavg()[0]:.2f})")  # fmt: skip
         dashboard.stop()
         server.stop()
@@ -283,11 +400,11 @@ def main() -> None:
         rtf, fps, cpu = measure_rtf(dashboard, args.seconds)
         snap = dashboard.loop.snapshot
         print(
-            f"simulation ({snap.backend}, {snap.robot}) with one browser connected: "
+            f"simulation ({snap.status.backend}, {snap.status.robot.name}) with one browser connected: "
             f"real-time factor {rtf:.2f} at speed 1 (paced; target ≥ 1), scene {fps:.1f} fps "
             f"(target ≥ 30; render thread's own fps {dashboard.view.fps:.1f}), "
             f"server process CPU {100 * cpu:.0f} %, "
-            f"control tick {1e3 * snap.step_time_s:.2f} ms"
+            f"control tick {1e3 * snap.status.step_time_s:.2f} ms"
         )
         dashboard.sim_panel.on_speed(
             4.0
@@ -298,8 +415,96 @@ def main() -> None:
         print(f"  at speed ×4 (headroom): real-time factor {rtf_max:.2f}")
         print(f"load average after: {os.getloadavg()[0]:.2f}")
 
+        browser_ms, server_ms = input_to_canvas_ms(page, dashboard)
+        print(
+            f"input → Fig. 1a canvas in Chromium (Δx typed, Enter → preview plots repainted), "
+            f"n={len(browser_ms)}: median {np.median(browser_ms):.0f} ms, max "
+            f"{browser_ms.max():.0f} ms (target ≤ 150 ms on an idle machine); of it the server "
+            f"(editor → plan → plots sent): median {np.median(server_ms):.0f} ms; the rest is "
+            "the websocket, the page's React update and uPlot's repaint"
+        )
+        deadline = time.time() + 120
+        while dashboard.loop.timeline.seconds_kept() < 59.5 and time.time() < deadline:
+            time.sleep(0.5)  # the buffer fills with the walk (the last 60 s are kept)
+        scrub_fps(dashboard)
+
         if args.screenshot:
             take_screenshot(page, dashboard, Path(args.screenshot))
+        browser.close()
+    dashboard.stop()
+    server.stop()
+
+
+def pictures(folder: Path, preset: Path) -> None:
+    """The README's pictures of issue 25's controls, in headless Chromium on ``preset``:
+    ``scrub_push.png``, the walk paused after a lateral click-push and scrubbed back to 0.25 s
+    after it (ξ leaving ξ_ref in the Live plot, the adjusted footstep), and ``drag_push.png``,
+    the torso dragged sideways by the mouse's spring (its line and force arrow)."""
+    from playwright.sync_api import sync_playwright
+
+    from dcmviz.dashboard.push import spring
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    dashboard = Dashboard(server, load_preset(preset), presets_dir=ROOT / "presets",
+                          preset=preset.stem)  # fmt: skip
+    loop = dashboard.loop
+    folder.mkdir(parents=True, exist_ok=True)
+
+    def close_notices(page) -> None:
+        for button in page.locator("button.mantine-Notification-closeButton").all():
+            try:
+                button.click(timeout=2000)
+            except Exception:  # noqa: BLE001 - closed by itself meanwhile
+                pass
+
+    def wait_sim(t: float, timeout: float = 60.0) -> None:
+        deadline = time.time() + timeout
+        while loop.session.t < t and time.time() < deadline:
+            time.sleep(0.01)
+
+    with sync_playwright() as p:
+        browser = launch_chromium(p)
+        page = browser.new_page(viewport={"width": 1400, "height": 800})
+        page.goto(f"http://127.0.0.1:{server.get_port()}")
+        page.get_by_text("T_ss [s]").wait_for(timeout=60_000)
+        close_notices(page)
+        page.get_by_role("tab", name="Live", exact=True).click()
+        loop.post("reset")
+        time.sleep(0.5)
+        # scrubbed back through a push: pause 0.6 s after it, then 0.35 s back
+        wait_sim(3.3)
+        loop.post("pause_after_push", 0.6)
+        dashboard.push_panel.gui_push_magnitude.value = 150.0
+        loop.post("push", {"force": (0.0, 150.0, 0.0), "duration": 0.2, "ramp": 0.0,
+                           "body": "torso"})  # fmt: skip
+        deadline = time.time() + 30
+        while loop.playing and time.time() < deadline:
+            time.sleep(0.02)
+        dashboard.time_panel.on_seek(0.35)
+        time.sleep(3.0)  # the scene, the plots and the time line show the frame
+        for _ in range(10):  # headless Chromium's "software WebGL" notice comes late
+            close_notices(page)
+            time.sleep(0.3)
+        page.screenshot(path=str(folder / "scrub_push.png"))
+        print(f"picture: {folder / 'scrub_push.png'} (paused at t = {loop.session.t:.2f} s)")
+        # a drag: the torso pulled 0.35 m sideways by the spring while the walk goes on
+        loop.post("live")
+        loop.post("pause_after_push", 0.0)
+        loop.post("reset")
+        dashboard.time_panel.on_play(True)
+        time.sleep(0.5)
+        wait_sim(3.0)
+        torso = loop.session.backend.body_position("torso")
+        k, c = spring(loop.session.mass)
+        loop.post("pull", {"body": "torso", "target": tuple(torso + (0.0, 0.4, 0.0)),
+                           "stiffness": k, "damping": c})  # fmt: skip
+        wait_sim(3.45)
+        dashboard.time_panel.on_play(False)
+        time.sleep(3.0)
+        close_notices(page)
+        page.screenshot(path=str(folder / "drag_push.png"))
+        print(f"picture: {folder / 'drag_push.png'} (t = {loop.session.t:.2f} s)")
+        loop.post("release")
         browser.close()
     dashboard.stop()
     server.stop()
