@@ -901,3 +901,29 @@ def test_a_camera_put_beside_a_paused_robot_stays_there() -> None:
     follow(0.155)  # walking again: followed from there
     np.testing.assert_allclose(camera.position, put + [0.1, 0.0, 0.0])
     np.testing.assert_allclose(camera.look_at, look + [0.1, 0.0, 0.0])
+
+
+def test_the_floor_grid_moves_under_a_robot_walking_off_it_in_whole_metres() -> None:
+    """The grid is a finite square (viser's infinite grid's shader tripled a software-WebGL
+    frame): it stays put while the robot is within GRID_RECENTRE_M of its centre, then moves
+    under it by whole metres, so its 1 m sections stay where they were on the floor."""
+    from dcmviz.dashboard.scene import GRID_RECENTRE_M, GRID_SIZE_M, Ground
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    try:
+        ground = Ground(server.scene)
+        assert (ground.handle.width, ground.handle.height) == (GRID_SIZE_M, GRID_SIZE_M)
+        assert not ground.handle.infinite_grid
+        path = np.stack([np.linspace(0.0, 30.0, 301), np.linspace(0.0, -4.3, 301),
+                         np.zeros(301)], axis=1)  # fmt: skip
+        for point in path:
+            ground.follow(point)
+            centre = np.asarray(ground.handle.position[:2])
+            offset = np.abs(point[:2] - centre).max()
+            assert offset < GRID_RECENTRE_M + 0.51  # the robot never nears the grid's edge
+            assert offset < GRID_SIZE_M / 2 - 10.0
+            np.testing.assert_array_equal(centre, np.round(centre))  # whole metres
+        np.testing.assert_allclose(ground.handle.position[:2], (24.0, -3.0))  # moved three times
+        ground.follow(None)  # no robot yet: nothing moves
+    finally:
+        server.stop()

@@ -109,7 +109,7 @@ class Dashboard:
         )  # fmt: skip
         self.loop = SimLoop(session_factory, config, on_event=self._on_sim_event)
         self.editor = ConfigEditor(config, self.loop, self.notifier)
-        scene.draw_ground(server)
+        self.ground = scene.draw_ground(server)
         self.terrain_view = TerrainView(server.scene)  # stairs and boxes of the preset
         self.editor.on_applied(lambda config, preset: self.terrain_view.show(config))
 
@@ -189,7 +189,7 @@ class Dashboard:
             status=StatusLine(self.gui_status, self.config_name, extra=self.status_extra),
             gui_follow=self.gui_follow,
             on_body_click=self.notifier.guarded("click-to-push", self.push_panel.on_body_click),
-            on_follow=self.aim.follow,
+            on_follow=self._followed,
             on_body_drag=self.notifier.guarded("drag-to-push", self.push_panel.on_body_drag),
             on_frame=self._on_frame,
             gui_contacts=self.gui_contacts,
@@ -362,6 +362,12 @@ class Dashboard:
         elif not self._early_connect and len(self.server.get_clients()) <= 1:
             if self.config.gait.mode == "plan" and self.loop.playing:  # (no early hook)
                 self.loop.post("reset")
+
+    def _followed(self, point: np.ndarray | None) -> None:
+        """The ground point under the robot (render thread): the aim arrows and the floor grid
+        follow it."""
+        self.aim.follow(point)
+        self.ground.follow(point)
 
     def _on_sim_event(self, kind: str, message: str) -> None:
         """A fall, a fault or a resume (on the simulation thread): a fall is shown once with

@@ -264,22 +264,48 @@ SCENE_LEGEND = (
 )
 
 
-def draw_ground(server: viser.ViserServer) -> None:
-    """Floor grid, lights and the initial camera (in front of the walk)."""
+GRID_SIZE_M = 40.0  # the floor grid's side: it moves under the robot in whole metres
+GRID_RECENTRE_M = 8.0  # ... once the robot is this far from its centre
+
+
+class Ground:
+    """The floor grid, a finite square that moves under a robot walking off it, whole metres
+    at a time (its lines stay where they were).  Not viser's infinite grid: its full-screen
+    shader made headless Chromium's software WebGL draw a frame in ~320 ms instead of ~130 ms
+    (bench/dashboard.py --latency, Talos at 1600 × 900), and every change in the page waits for
+    a frame."""
+
+    def __init__(self, scene: viser.SceneApi) -> None:
+        self.centre = np.zeros(2)
+        self.handle = scene.add_grid(
+            "/grid", width=GRID_SIZE_M, height=GRID_SIZE_M, cell_size=0.1, section_size=1.0,
+            plane="xy", position=(0.0, 0.0, -0.001), cell_color=(220, 220, 220),
+            section_color=(170, 170, 170), infinite_grid=False, fade_distance=30.0,
+        )  # fmt: skip
+
+    def follow(self, point: np.ndarray | None) -> None:
+        """Re-centre the grid under ``point`` (m, world) once it is GRID_RECENTRE_M away."""
+        if point is None:
+            return
+        xy = np.asarray(point, float)[:2]
+        if np.abs(xy - self.centre).max() < GRID_RECENTRE_M:
+            return
+        self.centre = np.round(xy)
+        self.handle.position = (float(self.centre[0]), float(self.centre[1]), -0.001)
+
+
+def draw_ground(server: viser.ViserServer) -> Ground:
+    """Floor grid, lights and the initial camera (in front of the walk); returns the grid."""
     scene = server.scene
     scene.set_up_direction("+z")
-    scene.add_grid(
-        "/grid", width=12.0, height=12.0, cell_size=0.1, section_size=1.0,
-        plane="xy", position=(0.0, 0.0, -0.001), cell_color=(220, 220, 220),
-        section_color=(170, 170, 170), infinite_grid=True, fade_distance=30.0,
-    )  # fmt: skip
+    ground = Ground(scene)
     # no HDR environment map: while a browser decodes one (seconds in software WebGL) viser
     # draws the whole scene at 5 % opacity, so a newcomer would first see a washed-out robot
     scene.configure_environment_map(hdri=None)
     # viser's default lights cast shadows: a shadow pass per frame made headless Chromium's
     # software WebGL draw one frame in ~850 ms (bench/dashboard.py --latency: Talos at
     # 1600 × 900), and every change in the page waited for it; the two lights below light the
-    # scene without shadows (~11 frames a second there; a GPU draws either at 60)
+    # scene without shadows (a GPU draws either at 60 frames a second)
     scene.configure_default_lights(enabled=False)
     scene.add_light_hemisphere("/light/sky", intensity=1.6)
     scene.add_light_directional("/light/sun", intensity=2.2, position=(4.0, 2.0, 5.0))
@@ -291,3 +317,4 @@ def draw_ground(server: viser.ViserServer) -> None:
     look_at = np.array([*FIRST_LOOK_AT, FRAME_LOOK_AT_HEIGHT_M])
     camera.position = tuple(look_at + FRAME_OFFSET)  # high enough to see the floor by the feet
     camera.look_at = tuple(look_at)
+    return ground
