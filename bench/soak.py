@@ -149,7 +149,7 @@ def main() -> None:
             cpu = clock.cpu_s()
             # CPU µs of the simulation thread per control tick (stepping, publishing snapshots)
             cost_us = 1e6 * (cpu - window_cpu) / max(clock.ticks - window_ticks, 1)
-            wall_us = 1e6 * loop.snapshot.step_time_s
+            wall_us = 1e6 * loop.snapshot.status.step_time_s
             rss = rss_mb()
             records = len(loop.session.realised_steps())
             main_walk = running == "continuous" and other_until is None
