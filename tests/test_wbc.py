@@ -181,3 +181,43 @@ def test_joint_limit_bounds_keep_a_joint_inside_its_range():
     T = gains.joint_limit_horizon
     ahead = q[7 + knee] + v[6 + knee] * T + 0.5 * sol.qdd[6 + knee] * T * T
     assert ahead >= gains.joint_limit_margin - 1e-6
+
+
+def test_the_reused_daqp_workspace_solves_as_a_fresh_solve_each_tick() -> None:
+    """The controller keeps one daqp workspace and updates its numbers each tick (issue 23):
+    over the start of a walk (double support, the weight shift, single support) with a failed
+    QP (NaN) in between, each tick's solution equals that of ``daqp.solve``, which sets up a
+    workspace afresh, on the same matrices."""
+    import dataclasses
+    from pathlib import Path
+
+    import daqp
+
+    from dcmviz.config import load_preset
+    from dcmviz.session import Session
+
+    preset = Path(__file__).resolve().parents[1] / "presets" / "walk_forward.toml"
+    session = Session(load_preset(preset), backend="mujoco")
+    wbc = session.backend.wbc
+    reused = wbc._daqp_solve
+    checked: list[tuple[int, int, bool]] = []
+    swings = set()
+
+    def both(H, c, A, sense):
+        x, _, flag, _ = daqp.solve(H, c, A, wbc._bounds_up, wbc._bounds_lo, sense,
+                                   rho_soft=wbc._rho_soft)  # fmt: skip
+        out = reused(H, c, A, sense)
+        checked.append((flag, out[2], bool(np.array_equal(out[0], x, equal_nan=True))))
+        return out
+
+    wbc._daqp_solve = both
+    for k in range(800):  # 1.6 s: standing, the weight shift, the first single support
+        if k == 300:  # one QP that fails in the middle of it
+            command = dataclasses.replace(
+                session.last_command, contact_force=np.array([np.nan, 0.0, 0.0])
+            )
+            assert not wbc.solve(session.backend._ctx, command, {s: True for s in SIDES}).ok
+        swings.add(session.step().swing_side)
+    assert len(checked) == 801 and {"left", None} <= swings
+    assert all(f1 == f2 for f1, f2, _ in checked)
+    assert all(same for *_, same in checked)  # the same numbers, bit for bit (NaN included)

@@ -173,6 +173,7 @@ class WholeBodyController:
         self.failures = 0  # QPs that failed (previous torques held)
         self._held_tau = np.zeros(robot.nu)  # torques of the last solved QP, N m
         self.sustained = SustainedLoad(g.sustained_time_s, control_dt)
+        self._daqp: daqp.Model | None = None  # the solver's workspace, set up at the first tick
         self.reset()
 
     def reset(self) -> None:
@@ -184,6 +185,22 @@ class WholeBodyController:
         self.last = None
         self.failures = 0
         self.sustained.reset()
+
+    def _daqp_solve(self, H: np.ndarray, c: np.ndarray, A: np.ndarray, sense: np.ndarray):
+        """daqp on this tick's numbers in one workspace set up at the first tick: the same
+        solution as ``daqp.solve`` (which sets up a workspace per call), about 20 µs a tick less
+        (Talos: 57 → 37 µs, bench/sim.py)."""
+        model = self._daqp
+        if model is None:
+            model = self._daqp = daqp.Model()
+            model.setup(H, c, A, self._bounds_up, self._bounds_lo, sense)
+            settings = model.settings
+            settings["rho_soft"] = self._rho_soft
+            model.settings = settings
+        else:
+            model.update(H=H, f=c, A=A, bupper=self._bounds_up, blower=self._bounds_lo,
+                         sense=sense)  # fmt: skip
+        return model.solve()
 
     def solve(self, ctx: Context, cmd: WalkerCommand, in_contact: dict[str, bool]) -> Solution:
         """τ for this tick; ``in_contact`` is the *measured* contact of each sole."""
@@ -239,9 +256,7 @@ class WholeBodyController:
         c_s = np.multiply(c, d, out=self._c_s)
         A_s = np.multiply(self._A, d, out=self._A_s)
         t1 = _clock()
-        x, _, exitflag, _ = daqp.solve(
-            H_s, c_s, A_s, self._bounds_up, self._bounds_lo, sense, rho_soft=self._rho_soft
-        )
+        x, _, exitflag, _ = self._daqp_solve(H_s, c_s, A_s, sense)
         x = x * d
         t2 = _clock()
         self.timings["qp_build"] += t1 - t0
