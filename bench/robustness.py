@@ -1,6 +1,6 @@
 """Survival of the paper's push and tug of war on one robot, at several scales (issue 22).
 
-    python bench/robustness.py --robot NAME|PATH [--jobs N] [--json PATH]
+    python bench/robustness.py --robot NAME|PATH [--jobs N] [--json PATH] [--sim mujoco|lip]
         [--scales 0.5,1,1.5,2,2.5,3] [--starts 4] [--levels 5,10,15,20,25,30,35]
         [--pull-sides +,-] [--recovery next_step] [--no-observer] [--only push|pull]
 
@@ -13,6 +13,10 @@ numbers (``walking_config``), never tuned per robot:
   ``--starts`` equal parts, so it lands in every phase of the gait and on either stance foot.
 - pull (paper's observer test): a lateral force on the torso ramped from 0 over 6 s from t = 1 s
   and held to the end (walking 12 steps, then standing), level × m g, on each side asked.
+
+``--sim lip`` runs the same walker on the point mass with the robot's mass, CoM height, feet and
+reach (the ceiling of what the paper's controller does with those numbers; the humanoid in
+MuJoCo, the default, is what a user sees).
 
 Per start time (push) and per side (pull) it prints which levels were survived, the first
 fall, and the holes: levels that fell although a higher level of the same row was survived
@@ -54,7 +58,9 @@ DEFAULT_SCALES = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0)
 DEFAULT_LEVELS = (5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0)  # % of m g
 
 
-def walking_config(robot: str, preset: str | Path = BASE_PRESET, overrides=()) -> Config:
+def walking_config(
+    robot: str, preset: str | Path = BASE_PRESET, overrides=(), sim: str = "mujoco"
+) -> Config:
     """``preset`` on ``robot`` with the gait derived from the robot's numbers: steps of
     min(0.20 m, 0.8 × max_step_length), width = the standing foot spacing, b from the standing
     CoM height (inside the robot's b range), adjustment up to min(0.3 m, max_step_length),
@@ -69,7 +75,7 @@ def walking_config(robot: str, preset: str | Path = BASE_PRESET, overrides=()) -
         f"gait.n_steps={N_STEPS}",
         f"dcm.b={b!r}",
         f"control.max_step_adjustment={round(min(0.3, spec.max_step_length_m), 3)}",
-        'sim.backend="mujoco"',
+        f'sim.backend="{sim}"',
     ]
     config = load_config(str(preset), [*sets, *overrides])
     return config.model_copy(update={"pushes": []})
@@ -129,7 +135,7 @@ def rollout(job: Job) -> dict[str, Any]:
 
     _with_gains(job.gains)
     t0 = time.perf_counter()
-    session = Session(job.config, backend="mujoco")
+    session = Session(job.config, backend=job.config.sim.backend)
     metrics = session.run(job.duration, stop_on_fall=True)
     return {
         "kind": job.kind,
@@ -213,7 +219,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--starts", type=int, default=4, help="push start times over one gait cycle")
     p.add_argument("--levels", type=floats, default=list(DEFAULT_LEVELS), help="pull, %% of m g")
     p.add_argument("--pull-sides", default="+,-", help="pull directions: +,- (left, right)")
-    p.add_argument("--recovery", choices=("next_step", "multi_step", "multi_step_timing"))
+    p.add_argument(
+        "--recovery", choices=("next_step", "multi_step", "multi_step_timing", "crossover")
+    )
+    p.add_argument("--sim", choices=("mujoco", "lip"), default="mujoco",
+                   help="the humanoid (mujoco) or the point mass with its numbers (lip)")  # fmt: skip
     p.add_argument("--no-observer", action="store_true", help="control.observer = false")
     p.add_argument("--only", choices=("push", "pull"))
     p.add_argument("--set", action="append", default=[], dest="overrides",
@@ -233,7 +243,7 @@ def main(argv: list[str] | None = None) -> int:
         overrides.append(f'control.recovery="{args.recovery}"')
     if args.no_observer:
         overrides.append("control.observer=false")
-    base = walking_config(args.robot, args.preset, overrides)
+    base = walking_config(args.robot, args.preset, overrides, args.sim)
     mass = load_robot(args.robot).spec.mass_kg
     cycle = 2.0 * (base.gait.t_ss + base.gait.t_ds)
     offsets = [round(cycle * i / args.starts, 3) for i in range(args.starts)]
@@ -254,7 +264,7 @@ def main(argv: list[str] | None = None) -> int:
                                 PULL_DURATION_S, gains))  # fmt: skip
     g = base.gait
     print(
-        f"{args.robot}: {mass:.2f} kg; gait {g.n_steps} steps of {g.step_length} m, width "
+        f"{args.robot} ({base.sim.backend}): {mass:.2f} kg; gait {g.n_steps} steps of {g.step_length} m, width "
         f"{g.step_width} m, T_ss {g.t_ss} s, T_ds {g.t_ds} s; b {base.dcm.b} s; recovery "
         f"{base.control.recovery}; observer {base.control.observer}; {len(jobs)} rollouts, "
         f"{args.jobs} jobs{'; gains ' + str(dict(gains)) if gains else ''}",
@@ -271,6 +281,7 @@ def main(argv: list[str] | None = None) -> int:
     wall = time.perf_counter() - t0
     out: dict[str, Any] = {
         "robot": args.robot,
+        "backend": base.sim.backend,
         "mass_kg": mass,
         "gait": g.model_dump() if hasattr(g, "model_dump") else str(g),
         "b": base.dcm.b,
