@@ -12,7 +12,7 @@ import pytest
 
 viser = pytest.importorskip("viser")
 
-from helpers import free_port, wait_for  # noqa: E402
+from helpers import OutputLines, free_port, wait_for  # noqa: E402
 
 from dcmviz.config import (  # noqa: E402
     MAX_PRESET_BYTES,
@@ -516,10 +516,10 @@ def test_app_serves_on_loopback() -> None:
         text=True,
     )
     try:
-        line = ""
-        deadline = time.time() + 60
-        while "dcmviz dashboard:" not in line and time.time() < deadline:
-            line = proc.stdout.readline()
+        lines = OutputLines(proc.stdout).wait_for(
+            lambda lines: any("dcmviz dashboard:" in x for x in lines), timeout=60
+        )  # (a thread reads: an app that prints nothing fails the test instead of hanging it)
+        line = next((x for x in lines if "dcmviz dashboard:" in x), "")
         assert f"http://localhost:{port}" in line
         assert urllib.request.urlopen(f"http://127.0.0.1:{port}", timeout=10).status == 200
     finally:
@@ -607,10 +607,10 @@ def test_app_on_loopback_prints_one_url_with_full_control() -> None:
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
     )  # fmt: skip
     try:
-        line = ""
-        deadline = time.time() + 60
-        while "dcmviz dashboard" not in line and time.time() < deadline:
-            line = proc.stdout.readline()
+        lines = OutputLines(proc.stdout).wait_for(
+            lambda lines: any("dcmviz dashboard" in x for x in lines), timeout=60
+        )
+        line = next((x for x in lines if "dcmviz dashboard" in x), "")
         assert line.startswith(f"dcmviz dashboard: http://localhost:{port}")
         assert "presenter" not in line and "key" not in line
     finally:
