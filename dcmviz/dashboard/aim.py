@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import viser
@@ -49,6 +49,17 @@ def aim_points(direction: np.ndarray, magnitude: float) -> np.ndarray:
     length = min(magnitude / draw.NEWTONS_PER_METRE, AIM_MAX_LENGTH_M)
     tail = tip - direction * length
     return np.array([[tail, tip]], np.float32) + np.float32(AIM_LIFT_M) * np.float32([0, 0, 1])
+
+
+def describe(force: Sequence[float]) -> str:
+    """'150 N toward +x (ψ_F = 0°)': a horizontal force's magnitude and direction."""
+    fx, fy = float(force[0]), float(force[1])
+    angle = math.degrees(math.atan2(fy, fx))
+    names = ((0, "forward +x"), (90, "left +y"), (180, "backward −x"), (-90, "right −y"),
+             (-180, "backward −x"))  # fmt: skip
+    near = min(names, key=lambda n: abs(n[0] - angle))
+    toward = f" ({near[1]})" if abs(near[0] - angle) <= 22.5 else ""
+    return f"{math.hypot(fx, fy):.0f} N at ψ_F = {angle:.0f}°{toward}"
 
 
 class _Aim:

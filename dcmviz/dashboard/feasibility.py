@@ -13,6 +13,7 @@ from collections.abc import Sequence
 import viser
 
 from dcmviz.config import Config
+from dcmviz.dashboard.aim import describe
 from dcmviz.gait import GaitPlan, PlanWarning, check_plan
 from dcmviz.robots import load_robot
 
@@ -63,8 +64,6 @@ def likely_cause(
     if push is not None:
         t, body, force = push[:3]
         what = "pull (a drag)" if len(push) > 3 and push[3] else "push"
-        from dcmviz.dashboard.push import describe
-
         more = (
             f" (the plan also has {len(warnings)} feasibility warning"
             + f"{'s' * (len(warnings) > 1)})"

@@ -10,7 +10,7 @@ import numpy as np
 import viser
 
 from dcmviz.config import Config, ConfigError, config_from_dict
-from dcmviz.dashboard.aim import PushAim
+from dcmviz.dashboard.aim import PushAim, describe
 from dcmviz.dashboard.editor import ConfigEditor
 from dcmviz.dashboard.loop import SimLoop
 from dcmviz.dashboard.notify import Notifier
@@ -43,17 +43,6 @@ def horizontal_force(direction: Sequence[float], magnitude: float) -> tuple[floa
     n = float(np.linalg.norm(d))
     d = d / n if n > 1e-9 else np.array([0.0, 1.0, 0.0])
     return tuple(float(c) for c in magnitude * d)
-
-
-def describe(force: Sequence[float]) -> str:
-    """'150 N toward +x (ψ_F = 0°)': a horizontal force's magnitude and direction."""
-    fx, fy = float(force[0]), float(force[1])
-    angle = math.degrees(math.atan2(fy, fx))
-    names = ((0, "forward +x"), (90, "left +y"), (180, "backward −x"), (-90, "right −y"),
-             (-180, "backward −x"))  # fmt: skip
-    near = min(names, key=lambda n: abs(n[0] - angle))
-    toward = f" ({near[1]})" if abs(near[0] - angle) <= 22.5 else ""
-    return f"{math.hypot(fx, fy):.0f} N at ψ_F = {angle:.0f}°{toward}"
 
 
 def heading(direction_deg: float) -> tuple[float, float, float]:
