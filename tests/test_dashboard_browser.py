@@ -352,23 +352,12 @@ def test_upload_preset(page, app, shots: Path) -> None:
     page.screenshot(path=shots / "06_uploaded.png")
 
 
-def test_click_on_the_robot_pushes_it(page, app, shots: Path, request) -> None:
-    """Clicking the point mass (a clickable sphere at the CoM) pushes along the view direction;
-    one click, one push, and the status names the force it applied.  Every wait is on its
-    condition: the camera the tab reports, the sphere drawn where it projects, no pop-up over it.
-    Before the click the tab shows its aim arrow (its own view direction, the panel's |F|), and
-    the click applies exactly that force."""
-    dashboard, _ = app
-    dashboard.push_panel.gui_push_magnitude.value = 100.0  # its own, whatever ran before
-    dashboard.sim_panel.on_play(False)
-    # the module's later tests need the walk going, whether this one passes or fails (a failure
-    # below left it paused: the k_ξ drag test then waited 15 s for a walk that never moved)
-    request.addfinalizer(lambda: dashboard.sim_panel.on_play(True))
-    assert wait_for(lambda: not dashboard.loop.snapshot.status.playing)
-    client = list(dashboard.server.get_clients().values())[-1]
-    com = np.asarray(dashboard.loop.snapshot.com)
-    position = com + np.array([-2.0, -0.6, 0.4])  # behind: view ≈ +x
-    look_at = com + np.array([0.0, -0.5, 0.0])  # the CoM left of the panel
+def aim_camera_at(dashboard: Dashboard, client, page, point, timeout: float = 10.0):
+    """Put ``client``'s camera behind-left of ``point`` (view ≈ +x, the point left of the
+    panel) and return the point's pixel in the page once the tab has applied that camera."""
+    point = np.asarray(point, float)
+    position = point + np.array([-2.0, -0.6, 0.4])
+    look_at = point + np.array([0.0, -0.5, 0.0])
     # through the view, as Frame robot does: camera follow (on by default) keeps this camera
     # (set on client.camera alone, a late report of the follow's last camera from the tab
     # could reach the server first and the follow put the tab back at its old offset)
@@ -390,10 +379,29 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path, request) -> None:
             and abs(cam.image_width / cam.image_height - box["width"] / box["height"]) < 0.01
         )
 
-    assert wait_for(camera_applied)
-    u, v = project(client.camera, com)
+    assert wait_for(camera_applied, timeout)
+    u, v = project(client.camera, point)
     box = canvas.bounding_box()
-    x, y = box["x"] + u * box["width"], box["y"] + v * box["height"]
+    return box["x"] + u * box["width"], box["y"] + v * box["height"]
+
+
+def test_click_on_the_robot_pushes_it(page, app, shots: Path, request) -> None:
+    """Clicking the point mass (a clickable sphere at the CoM) pushes along the view direction;
+    one click, one push, and the status names the force it applied.  Every wait is on its
+    condition: the camera the tab reports, the sphere drawn where it projects, no pop-up over it.
+    Before the click the tab shows its aim arrow (its own view direction, the panel's |F|), and
+    the click applies exactly that force."""
+    dashboard, _ = app
+    dashboard.push_panel.gui_push_magnitude.value = 100.0  # its own, whatever ran before
+    dashboard.sim_panel.on_play(False)
+    # the module's later tests need the walk going, whether this one passes or fails (a failure
+    # below left it paused: the k_ξ drag test then waited 15 s for a walk that never moved)
+    request.addfinalizer(lambda: dashboard.sim_panel.on_play(True))
+    assert wait_for(lambda: not dashboard.loop.snapshot.status.playing)
+    client = list(dashboard.server.get_clients().values())[-1]
+    com = np.asarray(dashboard.loop.snapshot.com)
+    x, y = aim_camera_at(dashboard, client, page, com)
+    box = page.locator("canvas").first.bounding_box()
     assert wait_for(lambda: close_notifications(page), timeout=15)  # none over the robot
     clip = {"x": x - 12, "y": y - 12, "width": 24, "height": 24}
 

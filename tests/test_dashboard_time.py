@@ -27,10 +27,10 @@ viser = pytest.importorskip("viser")
 sync_api = pytest.importorskip("playwright.sync_api")
 
 from helpers import free_port, wait_for  # noqa: E402
+from test_dashboard_browser import aim_camera_at as aim_client_camera  # noqa: E402
 from test_dashboard_browser import (  # noqa: E402
     click_through,
     close_notifications,
-    looks_along,
     pixels_of,
     project,
 )
@@ -252,26 +252,7 @@ def test_keep_a_preview_then_resume_from_here_with_another_gain(page, app, shots
 def aim_camera_at(app: Dashboard, page, point: np.ndarray) -> tuple[float, float]:
     """Set the tab's camera to look at ``point`` from behind-left; returns its pixel in the page
     once the tab reports that camera for its canvas."""
-    client = clients(app)[-1]
-    position = point + np.array([-2.0, -0.6, 0.4])
-    look_at = point + np.array([0.0, -0.5, 0.0])
-    app.view.put_camera(client, position, look_at)  # (kept by camera follow, if on)
-    canvas = page.locator("canvas").first
-
-    def applied() -> bool:
-        cam, rect = client.camera, canvas.bounding_box()
-        return bool(
-            np.allclose(cam.position, position, atol=1e-3)
-            and np.allclose(cam.look_at, look_at, atol=1e-3)
-            and looks_along(cam, look_at - position)
-            and rect is not None
-            and abs(cam.image_width / cam.image_height - rect["width"] / rect["height"]) < 0.01
-        )
-
-    assert wait_for(applied, 20)
-    u, v = project(client.camera, point)
-    rect = canvas.bounding_box()
-    return rect["x"] + u * rect["width"], rect["y"] + v * rect["height"]
+    return aim_client_camera(app, clients(app)[-1], page, point, timeout=20)
 
 
 def test_dragging_the_robot_pulls_it_with_a_spring(page, app, shots) -> None:
