@@ -54,9 +54,8 @@ class MujocoState:
     sole_points: np.ndarray  # (2, 3) the point those wrenches are about
     observer: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # L0, integral, estimate
     force_observer: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # p0, integral, estimate
-    sustained: tuple[np.ndarray, int, np.ndarray, np.ndarray]  # SustainedLoad.get_state()
+    wbc: tuple  # WholeBodyController.get_state(): held torques, the sustained load's window
     observer_fresh: bool
-    held_tau: np.ndarray | None  # the whole-body QP's torques kept for a failed solve
 
 
 def terrain_model(robot: Robot, terrain: Terrain) -> mujoco.MjModel:
@@ -327,7 +326,6 @@ class MujocoBackend:
         physics = np.empty(mujoco.mj_stateSize(self.model, STATE_SPEC))
         mujoco.mj_getState(self.model, self.data, physics, STATE_SPEC)
         obs, fobs = self.moment_observer, self.force_observer
-        held = getattr(self.wbc, "_held_tau", None)
         return MujocoState(
             physics=physics, t=self.t, contact=dict(self._contact),
             contact_force=dict(self._contact_force), applied=self._applied.copy(),
@@ -337,9 +335,8 @@ class MujocoBackend:
                                                obs.estimate.copy()),
             force_observer=None if fobs is None else (fobs.p0.copy(), fobs.integral.copy(),
                                                       fobs.estimate.copy()),
-            sustained=self.wbc.sustained.get_state(),
+            wbc=self.wbc.get_state(),
             observer_fresh=self._observer_fresh,
-            held_tau=None if held is None else np.array(held, float),
         )  # fmt: skip
 
     def set_state(self, state: MujocoState) -> MeasuredState:
@@ -357,10 +354,8 @@ class MujocoBackend:
         if self.force_observer is not None and state.force_observer is not None:
             fobs = self.force_observer
             fobs.p0, fobs.integral, fobs.estimate = (a.copy() for a in state.force_observer)
-        self.wbc.sustained.set_state(state.sustained)
+        self.wbc.set_state(state.wbc)
         self._observer_fresh = state.observer_fresh
-        if state.held_tau is not None and hasattr(self.wbc, "_held_tau"):
-            self.wbc._held_tau = state.held_tau.copy()
         d = self.data
         self._ctx = self.wbc.kinematics.context(
             self.scene.q_pin(d.qpos), self.scene.v_pin(d.qpos, d.qvel)

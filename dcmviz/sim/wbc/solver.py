@@ -186,6 +186,17 @@ class WholeBodyController:
         self.failures = 0
         self.sustained.reset()
 
+    def get_state(self) -> tuple:
+        """What the next tick depends on besides the context (a resume from a tick): the torques
+        held for a failed QP and the sustained load's window."""
+        return self._held_tau.copy(), self.sustained.get_state()
+
+    def set_state(self, state: tuple) -> None:
+        """Continue from :meth:`get_state`'s copy."""
+        held, sustained = state
+        self._held_tau = held.copy()
+        self.sustained.set_state(sustained)
+
     def _daqp_solve(self, H: np.ndarray, c: np.ndarray, A: np.ndarray, sense: np.ndarray):
         """daqp on this tick's numbers in one workspace set up at the first tick: the same
         solution as ``daqp.solve`` (which sets up a workspace per call), about 20 µs a tick less
