@@ -14,6 +14,8 @@ import pytest
 from dcmviz import GRAVITY
 from dcmviz.config import load_preset
 from dcmviz.robots import SIDES, Robot, load_robot
+from dcmviz.run import load_config
+from dcmviz.session import Session
 from dcmviz.sim.wbc import (
     BaseOrientationTask,
     FloatingBaseDynamics,
@@ -186,20 +188,58 @@ def test_trunk_tilt_bounds_brake_before_the_limit(robot):
 
 
 def test_a_lean_beyond_the_legs_reach_lowers_the_references():
-    """The walker's reference shift for a lean s: Δz = min(0, H(s) − w/2 sin atan(s/(g b²))
-    − g b²), H(s) = H_max − D + sqrt(D² − s²) the CoM height legs of length D reach spanning
-    s, less the far hip's rise when the robot leans that way (w the foot spacing)."""
+    """The walker's reference shift for a lean s at the plan's height h: Δz = min(0, H(s)
+    − w/2 sin atan(s/h) − h), H(s) = H_max − D + sqrt(D² − s²) the CoM height legs of length D
+    reach spanning s, less the far hip's rise when the robot leans that way (w the foot
+    spacing).  Lowered from the height the plan asks for now, not from g b²: a plan already
+    lowered (wide strides) is not lowered twice."""
     config = load_preset(ROOT / "presets" / "walk_forward.toml")
     robot = load_robot("talos")
     spec = robot.spec
     walker = Walker(config, robot, mass=spec.mass_kg, dt=0.002)
     D, H_max, dz = spec.leg_length_m, spec.max_com_height_m, GRAVITY * config.dcm.b**2
-    for lean in (0.02, 0.05, 0.15, 0.25, 0.35):
-        shift = walker._lean_height(np.array([0.0, -lean, 0.01]))
-        reach = H_max - D + math.sqrt(D * D - lean * lean)
-        rise = 0.5 * spec.foot_spacing_m * lean / math.hypot(lean, dz)
-        expected = min(0.0, reach - rise - dz)
-        assert shift[1] == -lean
-        assert shift[2] == pytest.approx(0.01 + expected, abs=1e-12)
-    assert walker._lean_height(np.array([0.0, -0.02, 0.0]))[2] == 0.0  # a small lean: no change
-    assert walker._lean_height(np.array([0.0, -0.25, 0.0]))[2] < -0.05  # 20 % of m g on Talos
+    for height in (dz, dz - 0.02, dz - 0.05):
+        for lean in (0.02, 0.05, 0.15, 0.25, 0.35):
+            shift = walker._lean_height(np.array([0.0, -lean, 0.01]), height)
+            reach = H_max - D + math.sqrt(D * D - lean * lean)
+            rise = 0.5 * spec.foot_spacing_m * lean / math.hypot(lean, height)
+            expected = min(0.0, reach - rise - height)
+            assert shift[1] == -lean
+            assert shift[2] == pytest.approx(0.01 + expected, abs=1e-12)
+    lean = np.array([0.0, -0.25, 0.0])  # 20 % of m g on Talos
+    assert walker._lean_height(np.array([0.0, -0.02, 0.0]), dz)[2] == 0.0  # a small lean
+    assert walker._lean_height(lean, dz)[2] < -0.05
+    # a plan already 3 cm lower is lowered 3 cm less (the target height is the same)
+    low = walker._lean_height(lean, dz - 0.03)[2]
+    assert low == pytest.approx(walker._lean_height(lean, dz)[2] + 0.03, abs=2e-3)
+
+
+def test_the_planned_height_is_the_plans_height_rule_above_the_stance_foot():
+    """Walker._planned_height on Romeo's walk (steps of 0.144 m, 0.192 m apart: its legs reach
+    only 1.2 cm of CoM height, so strides lower the VRP): in the middle of each single support
+    it equals gait.height.step_heights for the stance foot's stride, the height the plan's VRP
+    waypoints were built with (independently of the preview's polynomials).  Not the last
+    step's: its VRP already moves to the feet's middle at the standing height."""
+    from dcmviz.gait.height import step_heights
+
+    config = load_config(
+        str(ROOT / "presets" / "walk_forward.toml"),
+        ['robot.model="romeo"', "dcm.b=0.2598", "gait.step_length=0.144", "gait.step_width=0.192"],
+    )
+    robot = load_robot("romeo")
+    session = Session(config, backend="lip")
+    walker = session.walker
+    session.step()
+    plan = walker.plan
+    heights = step_heights(robot.spec, GRAVITY * config.dcm.b**2, plan.start_feet, plan.steps)
+    seen = []
+    for _ in range(int(4.0 / 0.002)):
+        command = session.step()
+        contact = plan.contact(command.t - plan.t0)
+        if contact.kind == "ss" and abs(contact.swing_progress - 0.5) < 0.002 and 0 < contact.step < len(plan.steps) - 1:
+            h = walker._planned_height(command.t, contact.swing_side)
+            seen.append((contact.step, h, heights[contact.step - 1]))
+    assert len(seen) >= 2
+    for k, h, expected in seen:
+        assert h == pytest.approx(expected, abs=1e-6), k
+    assert heights.min() < GRAVITY * config.dcm.b**2 - 0.003  # the plan does lower Romeo

@@ -29,7 +29,6 @@ from dcmviz.dcm import (
     com_force,
     moment_shift,
     reference_shift,
-    vrp_height,
     vrp_tracking,
 )
 from dcmviz.gait import GaitPlan, Planner
@@ -135,7 +134,7 @@ class Walker:
         if cfg.observer and state.external_moment is not None:
             shift = shift + moment_shift(state.external_moment, m)
         if cfg.observer:
-            shift = self._lean_height(shift)
+            shift = self._lean_height(shift, self._planned_height(t, contact.swing_side))
         if cfg.step_adjustment and not touched:  # a strategy may re-time the walk first
             plan = self.strategy.retime(walk, t, state.dcm(b), shift, cfg.max_step_adjustment)
             if plan is not None:
@@ -205,20 +204,32 @@ class Walker:
             shared += [walk.plan, walk.nominal_plan, walk.records, walk.planner]
         return copy.deepcopy(self, {id(x): x for x in shared})
 
-    def _lean_height(self, shift: np.ndarray) -> np.ndarray:
+    def _planned_height(self, t: float, swing_side: str | None) -> float:
+        """The plan's VRP height (m) now above the foot whose leg reaches furthest: the stance
+        foot in single support, the lower foot in double support.  The plan has already lowered
+        it where the stride spans the legs (:func:`dcmviz.gait.height.step_heights`)."""
+        walk = self.walk
+        preview = walk.plan.preview
+        local = min(max(t - walk.plan.t0, 0.0), preview.duration)
+        feet = [f for s, f in walk.placed.items() if s != swing_side]
+        return float(preview.vrp(local)[2]) - min(float(f.position[2]) for f in feet)
+
+    def _lean_height(self, shift: np.ndarray, height: float) -> np.ndarray:
         """The reference shift with the CoM lowered where leaning away from a sustained force
-        asks more of the legs than they reach at Δz_vrp: each leg spans the lean s = |shift_xy|
-        from hip to ankle (:func:`dcmviz.gait.height.walk_height_m`), and the whole robot leaning
-        by atan(s/Δz_vrp) (the humanoid's trunk does) lifts the hip on the far side by half the
-        foot spacing times its sine: the CoM comes down by what the legs then lack."""
+        asks more of the legs than they reach at the plan's ``height``: each leg spans the lean
+        s = |shift_xy| from hip to ankle (:func:`dcmviz.gait.height.walk_height_m`), and the
+        whole robot leaning by atan(s/height) (the humanoid's trunk does) lifts the hip on the far
+        side by half the foot spacing times its sine: the CoM comes down to what the legs then
+        reach, from the height the plan already asks for (lowering from b's nominal height
+        instead counted the plan's own lowering twice: Romeo's knees, 38 N m for 40 kg, gave way
+        under a 5 % pull at 12 mm below its walking height)."""
         lean = math.hypot(float(shift[0]), float(shift[1]))
         spec = self.spec
         if lean <= 0.0 or spec.leg_length_m is None:
             return shift
-        dz = vrp_height(self.b)
-        hip_rise = 0.5 * spec.foot_spacing_m * math.sin(math.atan2(lean, dz))
-        allowed = walk_height_m(spec, lean) - walk_height_m(spec, 0.0) - hip_rise
-        drop = min(0.0, allowed + (spec.max_com_height_m - dz))
+        hip_rise = 0.5 * spec.foot_spacing_m * math.sin(math.atan2(lean, height))
+        reach = spec.max_com_height_m + walk_height_m(spec, lean) - walk_height_m(spec, 0.0)
+        drop = min(0.0, reach - hip_rise - height)
         if drop >= 0.0:
             return shift
         return np.array([shift[0], shift[1], shift[2] + drop])

@@ -1,0 +1,58 @@
+"""Issue 22's tug of war on the humanoids in MuJoCo (bench/robustness.py's scenario).
+
+A lateral torso pull ramped over 6 s to a share of the robot's weight and held while it walks 12
+steps (next_step, observer on), scanned over levels on both sides, never one pinned value.
+
+Romeo (40.5 kg, 38 N m knees) fell at a 5 % pull while the walker lowered its CoM from b's
+nominal height for the lean: its walking plan had already lowered the VRP by 7 mm for the
+stride, the lean lowered it again, 12.8 mm in all, below the 1.2 cm of CoM height its legs
+walk in, and the stance knee gave way.  Lowered from the plan's own height it survives 10 %.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from functools import cache
+from pathlib import Path
+
+import pytest
+
+from dcmviz.robots import load_robot
+from dcmviz.session import Session
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@cache
+def _bench():
+    """bench/robustness.py as a module: the scenarios the bench runs, built the same way."""
+    spec = importlib.util.spec_from_file_location("robustness", ROOT / "bench" / "robustness.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # (its dataclasses look their module up)
+    spec.loader.exec_module(module)
+    return module
+
+
+def survives_pull(robot: str, level_pct: float, side: float) -> bool:
+    rb = _bench()
+    base = rb.walking_config(robot)
+    config = rb.pull_config(base, load_robot(robot).spec.mass_kg, level_pct, side)
+    return not Session(config, backend="mujoco").run(rb.PULL_DURATION_S, stop_on_fall=True).fell
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_romeo_walks_under_a_pull_up_to_10_percent_of_its_weight(side: float) -> None:
+    """Survived at 2.5, 5, 7.5 and 10 % (measured: falls at 12.5 % and 15 % on both sides)."""
+    for level in (2.5, 5.0, 7.5, 10.0):
+        assert survives_pull("romeo", level, side), level
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_talos_walks_under_a_pull_up_to_25_percent_of_its_weight(side: float) -> None:
+    """Survived at 15, 20 and 25 % (the paper shows 15 %; measured: +y falls at 35 %, −y at
+    30 %)."""
+    for level in (15.0, 20.0, 25.0):
+        assert survives_pull("talos", level, side), level
