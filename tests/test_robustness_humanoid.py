@@ -6,7 +6,8 @@ steps (next_step, observer on), scanned over levels on both sides, never one pin
 Romeo (40.5 kg, 38 N m knees) fell at a 5 % pull while the walker lowered its CoM from b's
 nominal height for the lean: its walking plan had already lowered the VRP by 7 mm for the
 stride, the lean lowered it again, 12.8 mm in all, below the 1.2 cm of CoM height its legs
-walk in, and the stance knee gave way.  Lowered from the plan's own height it survives 10 %.
+walk in, and the stance knee gave way.  Lowered from the plan's own height it survives 7.5 %
+(and 10 % on a knife-edge).
 """
 
 from __future__ import annotations
@@ -43,9 +44,11 @@ def survives_pull(robot: str, level_pct: float, side: float) -> bool:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("side", [1.0, -1.0])
-def test_romeo_walks_under_a_pull_up_to_10_percent_of_its_weight(side: float) -> None:
-    """Survived at 2.5, 5, 7.5 and 10 % (measured: falls at 12.5 % and 15 % on both sides)."""
-    for level in (2.5, 5.0, 7.5, 10.0):
+def test_romeo_walks_under_a_pull_up_to_7_5_percent_of_its_weight(side: float) -> None:
+    """Survived at 2.5, 5 and 7.5 % (measured: 10 % survived or not by a hair, −y survived,
+    +y falls at 11.1 s with Gains.w_landing = 5 and survives with 1 or 10; falls at 12.5 % and
+    15 % on both sides)."""
+    for level in (2.5, 5.0, 7.5):
         assert survives_pull("romeo", level, side), level
 
 

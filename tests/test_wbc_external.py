@@ -236,7 +236,11 @@ def test_the_planned_height_is_the_plans_height_rule_above_the_stance_foot():
     for _ in range(int(4.0 / 0.002)):
         command = session.step()
         contact = plan.contact(command.t - plan.t0)
-        if contact.kind == "ss" and abs(contact.swing_progress - 0.5) < 0.002 and 0 < contact.step < len(plan.steps) - 1:
+        if (
+            contact.kind == "ss"
+            and abs(contact.swing_progress - 0.5) < 0.002
+            and 0 < contact.step < len(plan.steps) - 1
+        ):
             h = walker._planned_height(command.t, contact.swing_side)
             seen.append((contact.step, h, heights[contact.step - 1]))
     assert len(seen) >= 2

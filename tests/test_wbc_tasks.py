@@ -12,6 +12,7 @@ external forces on the ankle joints, so neither side uses the sole Jacobian of t
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -240,3 +241,34 @@ def test_posture_task_is_the_joint_acceleration(robot):
 
     np.testing.assert_allclose(-b, _rate(joints), atol=1e-9)  # kp = 0, kd = 1: b = -θ̇
     np.testing.assert_allclose(A @ _x(layout, a, {}), _second_rate(joints), atol=1e-6)
+
+
+def test_the_swing_soles_height_weighs_more_as_it_lands(robot):
+    """The swinging foot's cost ‖A x − b‖² with ``landing`` = w: its height row (z) is the plain
+    task's times sqrt(1 + (w − 1) s(u)), s(u) = 3u² − 2u³ over u = (progress − 0.6)/0.3 clipped
+    to [0, 1]; the other rows, and the foot that stands, are the plain task's."""
+    import dataclasses
+
+    layout = Layout(robot.nv)
+    q, v, _ = _motion(robot, seed=8)
+    ctx = _context(robot, q, v)
+    plain = FootTask("left", layout, kp=600.0, kd=50.0, weight=10.0, depth=0.0)
+    landing = FootTask("left", layout, kp=600.0, kd=50.0, weight=10.0, depth=0.0, landing=10.0)
+    standing = FootTask("right", layout, kp=600.0, kd=50.0, weight=10.0, depth=0.0, landing=10.0)
+    standing_plain = FootTask("right", layout, kp=600.0, kd=50.0, weight=10.0, depth=0.0)
+    for progress in (0.0, 0.3, 0.6, 0.65, 0.75, 0.85, 0.9, 0.97):
+        cmd = dataclasses.replace(_command(robot, q), swing_progress=progress)
+        A0, b0 = (x.copy() for x in plain.compute(ctx, cmd))
+        A1, b1 = (x.copy() for x in landing.compute(ctx, cmd))
+        u = min(max((progress - 0.6) / 0.3, 0.0), 1.0)
+        scale = math.sqrt(1.0 + 9.0 * (3 * u * u - 2 * u**3))
+        rows = [0, 1, 3, 4, 5]
+        np.testing.assert_allclose(A1[rows], A0[rows], atol=0)
+        np.testing.assert_allclose(b1[rows], b0[rows], atol=0)
+        np.testing.assert_allclose(A1[2], scale * A0[2], rtol=1e-12, atol=1e-15)
+        assert b1[2] == pytest.approx(scale * b0[2], rel=1e-12, abs=1e-15)
+        A2, b2 = (x.copy() for x in standing.compute(ctx, cmd))
+        A3, b3 = standing_plain.compute(ctx, cmd)
+        np.testing.assert_array_equal(A2, A3)
+        np.testing.assert_array_equal(b2, b3)
+    assert scale == pytest.approx(math.sqrt(10.0))

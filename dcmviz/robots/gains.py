@@ -48,6 +48,13 @@ class Gains:
     w_angular_momentum: float = 0.5
     w_base: float = 3.0
     w_foot: float = 10.0  # a foot that cannot follow its path (joint ranges) yields to the CoM
+    # the swing sole's height weighs this many times w_foot as it lands (ramped in over 60–90 %
+    # of single support): with w_foot alone the QP let the sole lag its path by 3 mm on the way
+    # down and catch up at the end, touching 20–550 ms early at up to 0.15 m/s (talos_fast,
+    # g1_fast); with 5, ≤ 30 ms early at ≤ 0.05 m/s (tests/test_touchdown.py).  10 lands softer
+    # still but loses Talos's 29 N s crossover and romeo_push.toml: a recovering step must land
+    # where the CoM needs it more than softly (1: off)
+    w_landing: float = 5.0
     w_posture: float = 0.05
     w_qdd_reg: float = 1e-5
     w_wrench_reg: float = 1e-4  # on w / m

@@ -83,6 +83,7 @@ class WalkerCommand:
     f_hat: np.ndarray  # estimated perturbation force, eq. (45)
     v_cmd_rate: np.ndarray | None = None  # (3,) m/s, feed-forward rate of v_cmd (= v̇_ref)
     phase: int = 0  # current transition phase index (0-based)
+    swing_progress: float = 0.0  # 0..1 through single support (0 outside it)
     step_index: int = 0  # index of the step being taken (0 = first step), -1 while standing
     done: bool = False  # the plan ended and the robot stands
     legs_may_cross: bool = False  # the recovery may cross the legs: the whole-body QP keeps them

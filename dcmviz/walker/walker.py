@@ -189,6 +189,7 @@ class Walker:
             f_hat=f_hat,
             v_cmd_rate=preview.vrp_velocity(local) if local < preview.duration else np.zeros(3),
             phase=contact.phase,
+            swing_progress=contact.swing_progress,
             step_index=walk.steps_completed,
             done=walk.done(t),
             legs_may_cross=self.strategy.crosses_legs,

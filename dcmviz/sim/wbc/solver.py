@@ -88,6 +88,7 @@ class WholeBodyController:
                     g.kd_foot,
                     g.w_foot,
                     g.touchdown_depth,
+                    g.w_landing,
                     AnkleStops.of(robot, s, g.joint_limit_margin, g.joint_limit_horizon)
                     if g.joint_limits
                     else None,

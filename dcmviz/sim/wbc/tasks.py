@@ -183,11 +183,19 @@ class AnkleStops:
         return items
 
 
+# the swing sole's height row weighs more from this fraction of single support on, fully after
+# LANDING_RAMP more (Gains.w_landing)
+LANDING_FROM = 0.6
+LANDING_RAMP = 0.3
+
+
 class FootTask(Task):
     """Sole acceleration J q̈ + J̇ q̇ = a_ff + kp e + kd ė (position and yaw, roll/pitch flat).
 
     A foot scheduled as support that does not touch yet tracks a target ``touchdown_depth``
-    below its footstep, so it lands firmly instead of hovering on the floor.
+    below its footstep, so it lands firmly instead of hovering on the floor.  The swinging
+    foot's height row weighs ``landing`` times more as it lands (LANDING_FROM of single support
+    on), so that it arrives at rest where and when its path does.
 
     With ``ankle_stops``, the wanted angular acceleration turns each ankle joint no faster than
     its range allows (the bounds of the joint-limit constraint): the sole stays as flat as its
@@ -203,10 +211,12 @@ class FootTask(Task):
         kd: float,
         weight: float,
         depth: float,
+        landing: float = 1.0,
         ankle_stops: AnkleStops | None = None,
     ) -> None:
         self.side, self.kp, self.kd, self.weight = side, kp, kd, weight
         self.touchdown_depth = depth
+        self.landing = landing
         self.A = np.zeros((6, layout.nx))
         self.nv = layout.nv
         self.ankle_stops = ankle_stops
@@ -242,6 +252,12 @@ class FootTask(Task):
             b[3:] = self._within_stops(ctx, jacobian, b[3:])
         b -= ctx.sole_drift[self.side]
         self.A[:, : self.nv] = jacobian
+        if self.landing != 1.0 and self.side == cmd.swing_side:
+            u = min(max((cmd.swing_progress - LANDING_FROM) / LANDING_RAMP, 0.0), 1.0)
+            if u > 0.0:  # the height row weighs 1 + (w_landing − 1) smoothstep(u) times more
+                scale = math.sqrt(1.0 + (self.landing - 1.0) * u * u * (3.0 - 2.0 * u))
+                self.A[2, : self.nv] *= scale
+                b[2] *= scale
         return self.A, b
 
     def _within_stops(self, ctx: Context, jacobian: np.ndarray, wanted: np.ndarray) -> np.ndarray:
