@@ -439,7 +439,8 @@ def pictures(folder: Path, preset: Path) -> None:
     """The README's pictures of issue 25's controls, in headless Chromium on ``preset``:
     ``scrub_push.png``, the walk paused after a lateral click-push and scrubbed back to 0.25 s
     after it (ξ leaving ξ_ref in the Live plot, the adjusted footstep), and ``drag_push.png``,
-    the torso dragged sideways by the mouse's spring (its line and force arrow)."""
+    the torso dragged sideways by the mouse's spring (its line and force arrow), and
+    ``crossing.png``, a crossing recovery step (:func:`crossing`)."""
     from playwright.sync_api import sync_playwright
 
     from dcmviz.dashboard.push import spring
@@ -505,9 +506,53 @@ def pictures(folder: Path, preset: Path) -> None:
         page.screenshot(path=str(folder / "drag_push.png"))
         print(f"picture: {folder / 'drag_push.png'} (t = {loop.session.t:.2f} s)")
         loop.post("release")
+        time.sleep(0.5)
+        crossing(dashboard, page, folder / "crossing.png", wait_sim, close_notices)
         browser.close()
     dashboard.stop()
     server.stop()
+
+
+def crossing(dashboard: Dashboard, page, path: Path, wait_sim, close_notices) -> None:
+    """Issue 24's picture: the crossover strategy, Talos pushed 26 N s towards its stance
+    foot at mid single support of footstep 4; paused when the swing foot is half-way along its
+    path across, seen from the front (the drawn swing path round the stance foot, the crossed
+    footstep)."""
+    from dcmviz.sweep.search import push_window
+
+    loop = dashboard.loop
+    loop.post("live")
+    loop.post("pause_after_push", 0.0)
+    dashboard.editor.on_field_change("control", "recovery", "crossover")
+    dashboard.editor.on_field_change("control", "observer", False)
+    loop.post("reset")
+    dashboard.time_panel.on_play(True)
+    time.sleep(1.0)
+    start = push_window(loop.session.config, 4, 0.5)[0]
+    wait_sim(start - 0.004)
+    loop.post("push", {"force": (0.0, 130.0, 0.0), "duration": 0.2, "ramp": 0.0,
+                       "body": "torso"})  # fmt: skip
+    deadline = time.time() + 30
+    while time.time() < deadline:  # half-way: the crossing foot in the air, its path drawn
+        tick = loop.session.tick()
+        if tick is not None and tick.swing_path is not None and tick.t > start + 0.1:
+            break
+        time.sleep(0.002)
+    dashboard.time_panel.on_play(False)
+    dashboard.gui_follow.value = False
+    feet = np.mean(list(loop.session.tick().state.feet.values()), axis=0)
+    offset = np.array([1.2, 1.3, 1.8])  # in front, to its left, above (the crossing leg behind)
+    right = np.cross(-offset, [0.0, 0.0, 1.0])
+    # the robot left of the canvas's centre: the right-hand panel covers the canvas's right part
+    look_at = feet + (0.0, 0.0, 0.1) + 0.35 * right / np.linalg.norm(right)
+    for client in dashboard.server.get_clients().values():
+        dashboard.view.put_camera(client, look_at + offset, look_at, (0.0, 0.0, 1.0))
+    time.sleep(3.0)
+    for _ in range(5):
+        close_notices(page)
+        time.sleep(0.3)
+    page.screenshot(path=str(path))
+    print(f"picture: {path} (t = {loop.session.t:.2f} s, push at {start:.2f} s)")
 
 
 def first_view(path: Path, preset: Path, walked_s: float = 3.0) -> None:

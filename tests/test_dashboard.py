@@ -927,3 +927,65 @@ def test_the_floor_grid_moves_under_a_robot_walking_off_it_in_whole_metres() -> 
         ground.follow(None)  # no robot yet: nothing moves
     finally:
         server.stop()
+
+
+def test_the_swing_path_is_drawn_and_a_crossing_goes_round_the_stance_foot(dash: Dashboard):
+    """Issue 24: the scene draws the swinging sole's path still to go (/sim/swing) from the
+    walker's swing trajectory; pushed towards the stance foot at mid single support with the
+    crossover strategy, the drawn path ends across the stance foot and its middle passes in
+    front of or behind the stance sole, not through it."""
+    import math
+
+    from dcmviz.sweep.bounds import stance_edge_bound
+    from dcmviz.sweep.search import push_window
+
+    assert dash.editor.on_field_change("control", "recovery", "crossover")
+    assert dash.editor.on_field_change("control", "observer", False)
+    drain(dash)
+    session = dash.loop.session
+    config = session.config
+    start = push_window(config, 4, 0.5)[0]
+    impulse = 1.3 * stance_edge_bound(config, 4, 0.5, 0.2, math.pi / 2)
+    session.push((0.0, impulse / 0.2, 0.0), 0.2, start=start)
+    from types import SimpleNamespace
+
+    from dcmviz.dashboard.timeline import Timeline
+
+    view = dash.view
+    if not view._markers:
+        view._make_markers()
+    crossed = 0
+    timeline, kept = Timeline(), []
+    while session.t < start + 1.2 and not session.fell:
+        session.step()
+        tick = session.tick()
+        kept.append((timeline.append(tick), tick.swing_path))
+        view.draw_swing(SimpleNamespace(tick=tick))  # what the render thread does per frame
+        line = view._markers["swing"]
+        if tick.swing_path is None:
+            assert not line.visible
+            continue
+        assert line.visible
+        drawn = np.asarray(line.points)
+        np.testing.assert_allclose(drawn[:, 0], tick.swing_path[:-1], atol=1e-6)
+        np.testing.assert_allclose(drawn[:, 1], tick.swing_path[1:], atol=1e-6)
+        stance = tick.state.feet["left" if tick.command.swing_side == "right" else "right"]
+        side = 1.0 if tick.command.swing_side == "left" else -1.0
+        end = tick.swing_path[-1]
+        if side * (end[1] - stance[1]) < 0.0:  # the path ends across the stance foot
+            crossed += 1
+            half = 0.5 * session.spec.foot_length_m
+            across = tick.swing_path[np.abs(tick.swing_path[:, 1] - stance[1]) < 0.02]
+            # where it passes the stance foot's line it is ahead of or behind its sole
+            assert (np.abs(across[:, 0] - stance[0]) > half).all() or (across[:, 2] > 0.03).all()
+    assert not session.fell
+    assert crossed > 10
+    # the time buffer keeps the path for scrubbing back: each path once, in float32
+    for seq, path in kept:
+        replayed = timeline.tick(seq).swing_path
+        if path is None:
+            assert replayed is None
+        else:
+            np.testing.assert_allclose(replayed, path, atol=1e-6)
+    stored = {id(timeline._plans[seq % timeline.capacity][3]) for seq, p in kept if p is not None}
+    assert len(stored) == len({id(p) for _, p in kept if p is not None})

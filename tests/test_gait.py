@@ -258,3 +258,35 @@ def test_turning_in_place_pivots_about_the_inner_foot(turn):
         if step.side != inner and stance.side == inner:
             d = np.linalg.norm(step.position[:2] - stance.position[:2])
             assert d == pytest.approx(w / math.cos(turn / 2), abs=1e-12)
+
+
+def test_the_drawn_swing_path_is_the_sampled_one_still_to_go():
+    """SwingTrajectory.path (all points at once, drawn by the dashboard) equals sample(t) at
+    PATH_SAMPLES times evenly from the current segment's start to touchdown: a flat step, a
+    step over stairs, and a crossing step round the stance foot re-targeted mid-swing (its
+    detour on)."""
+    from dcmviz.gait.swing import PATH_SAMPLES
+    from dcmviz.gait.terrain import Terrain, stairs_boxes
+
+    sole = (0.21, 0.13)
+    flat = SwingTrajectory.between(
+        1.0, 1.7, Footstep("left", np.array([0.0, 0.085, 0.0])),
+        Footstep("left", np.array([0.4, 0.085, 0.05]), 0.2),
+    )  # fmt: skip
+    stairs = SwingTrajectory.between(
+        0.0, 0.9, Footstep("left", np.array([0.3, 0.085, 0.15])),
+        Footstep("left", np.array([0.9, 0.085, 0.45])),
+        terrain=Terrain(stairs_boxes(0.15, 0.15, 0.30, 10, 1.2, 1.5)), sole=sole,
+    )  # fmt: skip
+    stance = Footstep("right", np.array([0.2, -0.085, 0.0]))
+    crossing = SwingTrajectory.between(
+        2.0, 2.7, Footstep("left", np.array([0.0, 0.085, 0.0])),
+        Footstep("left", np.array([0.25, 0.05, 0.0])), sole=sole, stance=stance,
+    ).retarget(2.2, np.array([0.4, -0.25, 0.0]))  # fmt: skip
+    assert crossing.detour != (0.0, 0.0)  # it goes round the stance foot
+    for swing in (flat, stairs, crossing):
+        times = np.linspace(swing.t_seg, swing.t_touch, PATH_SAMPLES)
+        expected = np.array([swing.sample(t)[0] for t in times])
+        np.testing.assert_allclose(swing.path, expected, atol=1e-12)
+        np.testing.assert_allclose(swing.path[-1], swing.target, atol=1e-12)
+        assert not swing.path.flags.writeable

@@ -23,6 +23,7 @@ from dcmviz.dashboard.plots import LivePlot
 from dcmviz.dashboard.preview import Sole
 from dcmviz.dashboard.robot_view import BodyClick, BodyDrag, RobotView
 from dcmviz.dashboard.status import StatusLine
+from dcmviz.gait.swing import PATH_SAMPLES
 from dcmviz.robots import Robot
 from dcmviz.session import AppliedPush
 
@@ -120,6 +121,7 @@ class SimView:
         self._markers: dict[str, viser.SceneNodeHandle] = {}
         self._arrow_handles: dict[str, viser.ArrowsHandle] = {}
         self._steps_drawn: dict[str, tuple] = {}  # "adjusted"/"realised" → what is drawn
+        self._swing_drawn: np.ndarray | None = None  # the swing path drawn (SwingTrajectory.path)
         self._status_text = ""
         self._follow_anchor: np.ndarray | None = None
         self._cameras: dict[int, tuple] = {}  # per tab: (position and look-at offsets from
@@ -239,6 +241,7 @@ class SimView:
         self.draw_forces(snap)
         self.draw_contacts(snap)
         self.draw_pull(snap)
+        self.draw_swing(snap)
         robot = snap.status.robot
         spec = robot.spec
         realised = tick.realised_steps if tick is not None else ()
@@ -359,6 +362,25 @@ class SimView:
             line.points = points
         line.visible = True
 
+    def draw_swing(self, snap: Snapshot) -> None:
+        """The swinging sole's path still to go (a crossing step's detour round the stance
+        foot included), sent when the path changes: at lift-off and when the recovery moves
+        its footstep."""
+        tick = snap.tick
+        path = tick.swing_path if tick is not None else None
+        line = self._markers["swing"]
+        if path is None:
+            if line.visible:
+                line.visible = False
+            return
+        if self._swing_drawn is not path and not (
+            self._swing_drawn is not None and np.array_equal(self._swing_drawn, path)
+        ):
+            line.points = np.stack([path[:-1], path[1:]], axis=1).astype(np.float32)
+        self._swing_drawn = path
+        if not line.visible:
+            line.visible = True
+
     def _pins(self, segments: np.ndarray | None) -> None:
         handle = self._markers["pins"]
         if segments is None:
@@ -478,6 +500,14 @@ class SimView:
                 np.zeros((3, 2, 3), np.float32),
                 np.array([[c, c] for c in DOT_COLORS[:3]], np.uint8),
                 thickness=3.0,
+                thickness_units="screen",
+                visible=False,
+            ),  # fmt: skip
+            "swing": scene.add_line_segments(
+                "/sim/swing",
+                np.zeros((PATH_SAMPLES - 1, 2, 3), np.float32),
+                draw.SWING_COLOR,
+                thickness=5.0,
                 thickness_units="screen",
                 visible=False,
             ),  # fmt: skip

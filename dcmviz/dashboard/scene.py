@@ -39,6 +39,7 @@ FRAME_SHIFT = 1.2 * _RIGHT / np.linalg.norm(_RIGHT)
 FIRST_LOOK_AT = np.array([0.56, 0.87])  # the first view's (the walk's first metres in the
 # free part)
 REALISED_COLOR = FOOTSTEP_COLORS["realised"]
+SWING_COLOR = ADJUSTED_DCM_COLOR  # the swinging sole's path, to the footstep it lands on
 SOLE_THICKNESS_M = 0.006
 NEWTONS_PER_METRE = 100.0  # arrow length scale: 100 N ↔ 1 m
 SPLINE_POINTS = 150  # control points of the DCM splines (Catmull-Rom: smooth between them)

@@ -4,7 +4,8 @@ Every control tick the simulation loop appends the session's :class:`~dcmviz.ses
 :class:`Timeline`: its numbers go into fixed-size ring columns (float32 for what is drawn and
 plotted, float64 for the external forces and the backend's physical state, e.g. MuJoCo's
 mjSTATE_FULLPHYSICS), its shared objects (the robot, the walked and nominal plans, the landed
-footsteps, which change only at touchdowns) by reference.  :meth:`Timeline.tick` rebuilds the
+footsteps, which change only at touchdowns, and the swing foot's path, which changes at lift-off
+and when the recovery moves its footstep) by reference.  :meth:`Timeline.tick` rebuilds the
 tick of any buffered frame for drawing (its numbers as float32 copies), :meth:`Timeline.window`
 gives the plotted signals around a frame.
 
@@ -156,7 +157,11 @@ class Timeline:
         n_phys = 0 if tick.physics is None else len(tick.physics)
         self._phys = np.zeros((n, n_phys))
         self._robots: list = [None] * n
-        self._plans: list = [None] * n  # (plan, nominal_plan, realised_steps)
+        # (plan, nominal_plan, realised_steps, swing path as float32: one array per swing path,
+        # shared by the frames that drew it)
+        self._plans: list = [None] * n
+        self._path_source: np.ndarray | None = None
+        self._path: np.ndarray | None = None
         self.clear()
 
     def append(self, tick: Tick) -> int:
@@ -281,7 +286,12 @@ class Timeline:
         if self._phys.shape[1]:
             self._phys[i] = tick.physics
         self._robots[i] = tick.robot
-        self._plans[i] = (tick.plan, tick.nominal_plan, tick.realised_steps)
+        path = tick.swing_path
+        if path is not None and path is not self._path_source:  # a new swing path: kept once
+            self._path_source, self._path = path, path.astype(np.float32)
+            self._path.flags.writeable = False
+        kept = None if path is None else self._path
+        self._plans[i] = (tick.plan, tick.nominal_plan, tick.realised_steps, kept)
 
     def _index(self, seq: int) -> int:
         if not self.first_seq <= seq < self.next_seq:
@@ -297,7 +307,7 @@ class Timeline:
             forces = self._forces[i].copy()
             phys = self._phys[i].copy() if self._phys.shape[1] else None
             robot = self._robots[i]
-            plan, nominal, realised = self._plans[i]
+            plan, nominal, realised, path = self._plans[i]
             layout = self.layout
         L = layout.slices
         flags = int(ints[I_FLAGS])
@@ -376,6 +386,7 @@ class Timeline:
             pushes=tuple(pushes), f_ext=f_ext, f_hat=v("f_hat"), pose=pose,
             fell=bool(flags & F_FELL), done=bool(flags & F_DONE), contacts=tuple(contacts),
             cop=None if np.isnan(cop).any() else cop, physics=phys, pull=pull,
+            swing_path=None if path is None else path.astype(float),
         )  # fmt: skip
 
     def physics(self, seq: int) -> np.ndarray | None:

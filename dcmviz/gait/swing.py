@@ -13,6 +13,7 @@ from dcmviz.robots.feet import Footstep
 
 SWING_HEIGHT_M = 0.06  # apex of the swing above the higher of lift-off and touchdown
 RETARGET_FREEZE = 0.8  # the swing target is frozen for the last 20 % of single support
+PATH_SAMPLES = 24  # points of SwingTrajectory.path (the drawn path)
 
 
 def _quintic_coefficients(
@@ -321,6 +322,30 @@ class SwingTrajectory:
         if t >= self.t_touch:
             return np.array(p), np.zeros(3), np.zeros(3)
         return np.array(p), np.array(v), np.array(a)
+
+    @functools.cached_property
+    def path(self) -> np.ndarray:
+        """(PATH_SAMPLES, 3) sole positions along the path still to go: from the start of the
+        current segment (lift-off, or the last re-targeting) to touchdown, evenly in time; the
+        same numbers as :meth:`sample` at those times, for all of them at once (drawn)."""
+        T = self.t_touch - self.t_lift
+        T_seg = self.t_touch - self.t_seg
+        tau = np.linspace(0.0, T_seg, PATH_SAMPLES)
+        out = np.empty((PATH_SAMPLES, 3))
+        out[:, :2] = np.stack([tau**i for i in range(6)], axis=1) @ self.coeffs[:, :2]
+        if self.detour != (0.0, 0.0) and T_seg > 0.0:
+            u = tau / T_seg
+            out[:, :2] += np.outer(64 * u**3 * (1 - u) ** 3, self.detour)
+        s = np.clip((self.t_seg + tau - self.t_lift) / T, 0.0, 1.0)
+        z0, z1 = self.start[2], self.target[2]
+        if self.top is not None:
+            r, _, _, f, _, _ = _terrain_profile(s)
+            out[:, 2] = z0 + (self.top - z0) * r + (z1 - self.top) * f
+        else:
+            q = s**3 * (10 - 15 * s + 6 * s * s)
+            out[:, 2] = z0 + (z1 - z0) * q + self.height * 64 * s**3 * (1 - s) ** 3
+        out.flags.writeable = False
+        return out
 
     @functools.cached_property
     def _columns(self) -> tuple[tuple[float, ...], ...]:

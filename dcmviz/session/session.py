@@ -383,6 +383,7 @@ class Session:
             cop=cop,
             physics=backend.physics_state() if hasattr(backend, "physics_state") else None,
             pull=self._pull,
+            swing_path=status.swing_path if cmd.swing_side is not None else None,
         )
 
     def _recent(self, records: tuple) -> tuple:

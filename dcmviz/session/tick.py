@@ -75,6 +75,8 @@ class Tick:
     cop: np.ndarray | None = None
     physics: np.ndarray | None = None  # the backend's physical state (MuJoCo: FULLPHYSICS)
     pull: Pull | None = None  # a spring pull acting this tick (its force is in pushes)
+    # (n, 3) the swinging sole's path still to go (None on both feet)
+    swing_path: np.ndarray | None = None
 
     @property
     def dcm_error_m(self) -> float:

@@ -102,3 +102,5 @@ class WalkerStatus:
     records: tuple[StepRecord, ...]  # footsteps landed, in order
     steps_completed: int
     next_step_index: int  # index into plan.steps of the first footstep not yet landed
+    # (n, 3) the swinging sole's path still to go (SwingTrajectory.path); None on both feet
+    swing_path: np.ndarray | None = None

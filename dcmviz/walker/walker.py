@@ -250,6 +250,7 @@ class Walker:
                 records=walk.records,
                 steps_completed=walk.steps_completed,
                 next_step_index=walk.next_step_index,
+                swing_path=walk.swing.path if walk.swing is not None else None,
             )
         return self._status
 
