@@ -332,7 +332,7 @@ class SwingTrajectory:
         T_seg = self.t_touch - self.t_seg
         tau = np.linspace(0.0, T_seg, PATH_SAMPLES)
         out = np.empty((PATH_SAMPLES, 3))
-        out[:, :2] = np.stack([tau**i for i in range(6)], axis=1) @ self.coeffs[:, :2]
+        out[:, :2] = np.vander(tau, 6, increasing=True) @ self.coeffs[:, :2]
         if self.detour != (0.0, 0.0) and T_seg > 0.0:
             u = tau / T_seg
             out[:, :2] += np.outer(64 * u**3 * (1 - u) ** 3, self.detour)
