@@ -32,6 +32,7 @@ BLEND_S = 0.1  # s over which the footholds move between the uncrossed and the c
 CROSS_RATIO = 0.5  # a crossing is taken when it scores below this fraction of the uncrossed
 MIN_SHORTFALL_M = 0.005  # ... and the uncrossed answer leaves the CoP at least this far short
 MODES = ("front", "back")
+TOWARDS_STANCE_DEG = 60.0  # a crossing is considered for DCM errors this close to across
 
 
 class Crossover(MultiStepTiming):
@@ -90,7 +91,13 @@ class Crossover(MultiStepTiming):
                 )
             return answers[mode]
 
-        if not frozen and not crossed_now and self.mode == "none" and self._available():
+        if (
+            not frozen
+            and not crossed_now
+            and self.mode == "none"
+            and self._available()
+            and self._towards_stance(plan, k, xi_error)
+        ):
             uncrossed = answer("none")[0]
             short = float(np.linalg.norm(uncrossed.slack))
             if short > MIN_SHORTFALL_M:
@@ -139,6 +146,19 @@ class Crossover(MultiStepTiming):
         """The blend's weight of the present choice: a smoothstep of the time since it changed."""
         u = self._blend
         return u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
+
+    def _towards_stance(self, plan: GaitPlan, k: int, xi_error: np.ndarray) -> bool:
+        """True when the DCM error points across, towards footstep k's stance foot (within
+        TOWARDS_STANCE_DEG of its lateral axis): what only a crossing step catches.  An error
+        that points elsewhere is the uncrossed strategy's: crossing for it (for the crossover
+        region's longer reach forward, say) left Talos standing crossed against the way it
+        fell (a 1 s push pair at 1.5x the paper's, bench/robustness.py)."""
+        step = plan.steps[k]
+        stance = plan.stance_for(k)
+        c, s = np.cos(stance.yaw), np.sin(stance.yaw)
+        ex, ey = float(xi_error[0]), float(xi_error[1])
+        across = -SIDE_SIGN[step.side] * (-s * ex + c * ey)  # towards the stance foot's side
+        return across > np.cos(np.radians(TOWARDS_STANCE_DEG)) * np.hypot(ex, ey)
 
     def _crossed(self, walk: Walk, plan: GaitPlan, k: int) -> bool:
         """True while the legs stand crossed: footstep k's foot stands across its stance foot
