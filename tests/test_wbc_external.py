@@ -109,7 +109,9 @@ def test_floating_base_rows_carry_a_push_on_the_upper_body(robot):
 
 def test_sustained_load_passes_what_lasts_and_drops_pushes():
     """T = 1 s: a 0.5 s push never passes; a force held 3 s passes from 1 s after its start to
-    its end, then drops at once; a ramp passes 1 s late; a sign change resets the component."""
+    its end, then drops at once; a ramp passes at its present value once it has ramped for T
+    (a steady ramp over the whole window), nothing before; a sign change resets the component;
+    a push on top of a ramp (not a straight line) falls back to the window's smallest value."""
     dt = 0.002
     load = SustainedLoad(1.0, dt)
     seen = []
@@ -119,18 +121,30 @@ def test_sustained_load_passes_what_lasts_and_drops_pushes():
         held = 100.0 if 1.0 <= t < 4.0 else 0.0
         ramp = 10.0 * t
         flip = 5.0 if t < 3.0 else -5.0
-        load.update(t, np.array([push, held, ramp]), np.array([flip, 0.0, 0.0]))
-        seen.append((t, *load.force, load.moment[0]))
+        late_ramp = max(0.0, 20.0 * (t - 0.5)) + (30.0 if 3.0 <= t < 3.2 else 0.0)
+        load.update(t, np.array([push, held, ramp]), np.array([flip, late_ramp, 0.0]))
+        seen.append((t, *load.force, load.moment[0], load.moment[1]))
     seen = np.array(seen)
     t = seen[:, 0]
     assert np.all(seen[:, 1] == 0.0)  # the push
     inside = (t > 2.0 + dt) & (t < 4.0 - dt)
     assert np.all(seen[inside, 2] == 100.0)
     assert np.all(seen[(t < 2.0 - dt) | (t > 4.0 + dt), 2] == 0.0)
-    late = t > 1.5
-    np.testing.assert_allclose(seen[late, 3], 10.0 * (t[late] - 1.0 + dt), atol=1e-9)
+    assert np.all(seen[t < 1.0 - dt, 3] == 0.0)  # younger than T: not yet held
+    late = t > 1.0 + dt
+    np.testing.assert_allclose(seen[late, 3], 10.0 * t[late], atol=1e-9)
     assert np.all(seen[(t > 3.0 + dt) & (t < 4.0 - dt), 4] == 0.0)
     assert np.all(seen[(t > 4.0 + dt), 4] == -5.0)
+    ramped = (t > 1.5 + dt) & (t < 3.0)
+    np.testing.assert_allclose(seen[ramped, 5], 20.0 * (t[ramped] - 0.5), atol=1e-9)
+    assert np.all(seen[t < 1.5 - dt, 5] == 0.0)
+    # a 0.2 s push on the ramp: while it lasts, the window's oldest value; after it, never more
+    # than the ramp itself (the push does not pass)
+    bumped = (t > 3.0 + dt) & (t < 3.2 - dt)
+    np.testing.assert_allclose(seen[bumped, 5], 20.0 * (t[bumped] - 1.0 + dt - 0.5), atol=1e-9)
+    after = (t > 3.2 + dt) & (t < 4.5)
+    assert np.all(seen[after, 5] <= 20.0 * (t[after] - 0.5) + 1e-9)
+    assert np.all(seen[after, 5] >= 20.0 * (t[after] - 1.0 - 0.5) - 1e-9)
 
 
 def test_the_trunk_leans_with_the_robot_under_a_sustained_pull(robot):

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+RAMP_TOLERANCE = 0.1  # of the change over the window: a steady ramp's quarters lie this close
+RAMP_FLOOR = (1.0, 0.5)  # N, N m: smaller changes (and deviations) are the estimates' noise
+
 
 class SustainedLoad:
     """The part of F̂ (the walker's, eq. 45) and τ̂ (:class:`MomentObserver`) that has lasted T:
@@ -13,6 +16,13 @@ class SustainedLoad:
     moment about the CoM is absorbed as centroidal angular momentum (the trunk rolls with it and
     is righted afterwards) instead of pulling the CMP inside the sole.  A low-pass filter would
     keep a push's moment at the feet for T after the push has gone.  T = 0: all is sustained.
+
+    A component that has changed steadily over the whole window (a ramp: its values at the
+    window's quarters within RAMP_TOLERANCE of the line between its ends, no sign change) is
+    sustained at its present value: a load growing for T is no push, and the min over the window
+    leaves a ramp's last T of growth to the angular momentum, which then grows for as long as the
+    ramp goes on (Talos under the tug of war ramped to 35 % of m g fell at 16 %, before the ramp
+    reached what it holds).
     """
 
     def __init__(self, time_constant_s: float, dt: float = 0.002) -> None:
@@ -52,5 +62,21 @@ class SustainedLoad:
         value = [
             lo if lo > 0.0 else hi if hi < 0.0 else 0.0 for lo, hi in zip(low, high, strict=True)
         ]
+        n, i = self._n, self._i  # the oldest sample is at i, the newest at i - 1
+        if n >= 4:
+            ends = self._window[:, [i % n, (i + n // 4) % n, (i + n // 2) % n,
+                                    (i + 3 * n // 4) % n, (i - 1) % n]].tolist()  # fmt: skip
+            for k, (a, q1, q2, q3, e) in enumerate(ends):
+                if value[k] == 0.0:
+                    continue  # the sign changed: nothing held
+                span = e - a
+                tol = RAMP_TOLERANCE * abs(span) + RAMP_FLOOR[k // 3]
+                if (
+                    abs(span) > RAMP_FLOOR[k // 3]
+                    and abs(q1 - (a + 0.25 * span)) <= tol
+                    and abs(q2 - (a + 0.5 * span)) <= tol
+                    and abs(q3 - (a + 0.75 * span)) <= tol
+                ):
+                    value[k] = e
         self.force = np.array(value[:3])
         self.moment = np.array(value[3:])
