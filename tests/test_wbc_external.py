@@ -223,6 +223,13 @@ def test_a_lean_beyond_the_legs_reach_lowers_the_references():
     lean = np.array([0.0, -0.25, 0.0])  # 20 % of m g on Talos
     assert walker._lean_height(np.array([0.0, -0.02, 0.0]), dz)[2] == 0.0  # a small lean
     assert walker._lean_height(lean, dz)[2] < -0.05
+    # continuous at no lean, also where the plan asks for more than the legs reach standing
+    # (the start from a standing posture above max_com_height_m): a lean of 1e-18 m (the
+    # observer's round-off) lowered the references by 1.2 mm in one tick
+    for height in (H_max - 0.01, H_max + 0.002, H_max + 0.05):
+        assert walker._lean_height(np.array([0.0, -1e-18, 0.0]), height)[2] == pytest.approx(
+            0.0, abs=1e-12
+        )
     # a plan already 3 cm lower is lowered 3 cm less (the target height is the same)
     low = walker._lean_height(lean, dz - 0.03)[2]
     assert low == pytest.approx(walker._lean_height(lean, dz)[2] + 0.03, abs=2e-3)

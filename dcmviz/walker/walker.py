@@ -230,7 +230,9 @@ class Walker:
             return shift
         hip_rise = 0.5 * spec.foot_spacing_m * math.sin(math.atan2(lean, height))
         reach = spec.max_com_height_m + walk_height_m(spec, lean) - walk_height_m(spec, 0.0)
-        drop = min(0.0, reach - hip_rise - height)
+        # from the height the plan asks for, but no more than the legs reach standing (a start
+        # from a higher standing posture): the lowering is what the lean adds, 0 at no lean
+        drop = min(0.0, reach - hip_rise - min(height, spec.max_com_height_m))
         if drop >= 0.0:
             return shift
         return np.array([shift[0], shift[1], shift[2] + drop])
