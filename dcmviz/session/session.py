@@ -346,7 +346,7 @@ class Session:
         adjusted_step = recovery_step = None
         if adjusted is not None and 0 <= adjusted[0] < len(plan.steps):
             adjusted_step = plan.steps[adjusted[0]].moved(np.array(adjusted[1], float))
-        contacts = tuple(backend.contacts()) if hasattr(backend, "contacts") else ()
+        contacts = tuple(backend.contacts())
         cop = None
         if contacts:
             weight = np.array([max(float(f[2]), 0.0) for _, f in contacts])
@@ -381,7 +381,7 @@ class Session:
             done=bool(cmd.done),
             contacts=contacts,
             cop=cop,
-            physics=backend.physics_state() if hasattr(backend, "physics_state") else None,
+            physics=backend.physics_state(),
             pull=self._pull,
             swing_path=status.swing_path if cmd.swing_side is not None else None,
         )

@@ -48,3 +48,12 @@ class Backend(Protocol):
     def robot_pose(self) -> RobotPose | None:
         """The humanoid's pose, or None for a model without links (the point mass)."""
         ...
+
+    def contacts(self) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+        """The measured contacts this tick: (centre of pressure m, force N) of each."""
+        ...
+
+    def physics_state(self) -> np.ndarray:
+        """The backend's physical state this tick (MuJoCo: mjSTATE_FULLPHYSICS), to compare a
+        resumed walk with the original."""
+        ...
