@@ -1,12 +1,16 @@
 """Small helpers shared by the tests: a free loopback port, waiting on a condition, a child
-process's output lines, an RK4 integration."""
+process's output lines, an RK4 integration, bench/robustness.py as a module."""
 
 from __future__ import annotations
 
+import importlib.util
 import socket
+import sys
 import threading
 import time
 from collections.abc import Callable
+from functools import cache
+from pathlib import Path
 
 
 def free_port() -> int:
@@ -58,3 +62,14 @@ class OutputLines:
         with self._changed:
             self._changed.wait_for(lambda: condition(self.lines), timeout)
             return list(self.lines)
+
+
+@cache
+def robustness_bench():
+    """bench/robustness.py as a module: the scenarios the bench runs, built the same way."""
+    path = Path(__file__).resolve().parents[1] / "bench" / "robustness.py"
+    spec = importlib.util.spec_from_file_location("robustness", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # (its dataclasses look their module up)
+    spec.loader.exec_module(module)
+    return module

@@ -10,31 +10,15 @@ whole-body layer.  Talos's ceiling is above 2× at every start.
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from functools import cache
-from pathlib import Path
-
 import pytest
+from helpers import robustness_bench
 
 from dcmviz.session import Session
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-@cache
-def _bench():
-    """bench/robustness.py as a module: the scenarios the bench runs, built the same way."""
-    spec = importlib.util.spec_from_file_location("robustness", ROOT / "bench" / "robustness.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # (its dataclasses look their module up)
-    spec.loader.exec_module(module)
-    return module
 
 
 def survived_starts(robot: str, scale: float) -> list[bool]:
     """Point mass, next_step, observer on: survived the push pair at each of four starts."""
-    rb = _bench()
+    rb = robustness_bench()
     base = rb.walking_config(robot, sim="lip")
     mass = Session(base, backend="lip").mass
     cycle = 2.0 * (base.gait.t_ss + base.gait.t_ds)

@@ -121,7 +121,6 @@ class SimView:
         self._markers: dict[str, viser.SceneNodeHandle] = {}
         self._arrow_handles: dict[str, viser.ArrowsHandle] = {}
         self._steps_drawn: dict[str, tuple] = {}  # "adjusted"/"realised" → what is drawn
-        self._swing_drawn: np.ndarray | None = None  # the swing path drawn (SwingTrajectory.path)
         self._status_text = ""
         self._follow_anchor: np.ndarray | None = None
         self._cameras: dict[int, tuple] = {}  # per tab: (position and look-at offsets from
@@ -230,14 +229,14 @@ class SimView:
         on = self.gui_contacts is None or bool(self.gui_contacts.value)
         if tick is None:
             self._place_dots([None, None, None, None])
-            self._pins(None)
+            self._segments("pins", None)
         else:
             c = tick.command
             floor = np.array([c.xi, c.xi_adj, c.v_cmd]) - drop  # ground points + FLOOR_LIFT_M
             segments = pins(floor, float(np.min(floor[:, 2])) - FLOOR_LIFT_M)
             cop = tick.cop + [0.0, 0.0, FLOOR_LIFT_M] if tick.cop is not None and on else None
             self._place_dots([*segments[:, 1], cop])
-            self._pins(segments)
+            self._segments("pins", segments)
         self.draw_forces(snap)
         self.draw_contacts(snap)
         self.draw_pull(snap)
@@ -348,19 +347,12 @@ class SimView:
         """A drag's spring: a line from where it holds the body to the pointer's point."""
         tick = snap.tick
         pull = tick.pull if tick is not None else None
-        line = self._markers["spring"]
-        if pull is None:
-            if line.visible:
-                line.visible = False
-            return
-        point = next((p.point for p in tick.pushes if p.body == pull.body), None)
-        if point is None:
-            line.visible = False
-            return
-        points = np.array([[pull.grab(point), pull.target]], np.float32)
-        if np.abs(np.asarray(line.points) - points).max() > MARKER_TOLERANCE_M:
-            line.points = points
-        line.visible = True
+        point = None
+        if pull is not None:
+            point = next((p.point for p in tick.pushes if p.body == pull.body), None)
+        self._segments(
+            "spring", None if point is None else np.array([[pull.grab(point), pull.target]])
+        )
 
     def draw_swing(self, snap: Snapshot) -> None:
         """The swinging sole's path still to go (a crossing step's detour round the stance
@@ -368,27 +360,23 @@ class SimView:
         its footstep."""
         tick = snap.tick
         path = tick.swing_path if tick is not None else None
-        line = self._markers["swing"]
-        if path is None:
-            if line.visible:
-                line.visible = False
-            return
-        if self._swing_drawn is not path and not (
-            self._swing_drawn is not None and np.array_equal(self._swing_drawn, path)
-        ):
-            line.points = np.stack([path[:-1], path[1:]], axis=1).astype(np.float32)
-        self._swing_drawn = path
-        if not line.visible:
-            line.visible = True
+        segments = None if path is None else np.stack([path[:-1], path[1:]], axis=1)
+        self._segments("swing", segments, tolerance=0.0)
 
-    def _pins(self, segments: np.ndarray | None) -> None:
-        handle = self._markers["pins"]
+    def _segments(
+        self, name: str, segments: np.ndarray | None, tolerance: float = MARKER_TOLERANCE_M
+    ) -> None:
+        """Line segments ``name`` ((n, 2, 3) ends; None hides them), their points sent only
+        when an end moved more than ``tolerance`` (m) and their visibility only when it
+        changes."""
+        handle = self._markers[name]
         if segments is None:
             if handle.visible:
                 handle.visible = False
             return
         segments = np.asarray(segments, np.float32)
-        if np.abs(np.asarray(handle.points) - segments).max() > MARKER_TOLERANCE_M:
+        old = np.asarray(handle.points)
+        if old.shape != segments.shape or np.abs(old - segments).max() > tolerance:
             handle.points = segments
         if not handle.visible:
             handle.visible = True

@@ -383,7 +383,7 @@ class Session:
             cop=cop,
             physics=backend.physics_state(),
             pull=self._pull,
-            swing_path=status.swing_path if cmd.swing_side is not None else None,
+            swing_path=status.swing_path,
         )
 
     def _recent(self, records: tuple) -> tuple:
