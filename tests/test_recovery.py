@@ -229,3 +229,32 @@ def test_the_lateral_priority_support_moves_with_the_observers_shift() -> None:
     far = np.array([0.6, 0.085 + 0.05, 0.9])  # on the left sole, beyond its image
     assert strategy.shape_vrp(far, both, placed, shift)[1] < far[1] - 0.05
     assert strategy.shape_vrp(far, both, placed)[1] == pytest.approx(far[1])
+
+
+@pytest.mark.parametrize("strategy_name", ["multi_step_timing", "crossover"])
+def test_timing_choice_is_the_same_with_the_observers_shift(strategy_name: str) -> None:
+    """Under a sustained force the observer shifts ξ_ref and v_ref by s (eqs. 47–49) and the
+    contact CoP lies −s from the VRP: the same DCM error relative to the shifted reference is
+    the same recovery problem.  The re-timing's choice must not depend on s (it compared ξ with
+    the soles themselves in its capture term: a 25 % pull on Talos leaned ξ 0.2 m off them,
+    the timing QP stretched the phases and Talos fell where next_step walks)."""
+    config = Config().replace(sim={"backend": "lip"}, control={"recovery": strategy_name})
+    s = Session(config, backend="lip")
+    plan = s.plan
+    s.run(plan.phase_start(8) + 0.3)  # single support of footstep 4 (the right foot swings)
+    t = s.t
+    error = np.array([0.01, 0.07, 0.0])  # towards the stance foot: the timing is questioned
+    shift = np.array([0.02, -0.15, -0.01])
+    chosen = []
+    for offset in (np.zeros(3), shift):
+        walker = s.walker.copy()
+        walk, strategy = walker.walk, walker.strategy
+        local = t - walk.plan.t0
+        xi = walk.plan.preview.dcm(local) + offset + error
+        strategy.adjust(walk, t, local, error, config.control.max_step_adjustment)
+        assert strategy.last_slack > 1e-3  # the QP leaves the CoP short: retime compares
+        retimed = strategy.retime(walk, t, xi, offset, config.control.max_step_adjustment)
+        assert retimed is not None
+        chosen.append((strategy._timing_target.copy(), retimed.preview.durations.copy()))
+    np.testing.assert_allclose(chosen[1][0], chosen[0][0], atol=1e-12)
+    np.testing.assert_allclose(chosen[1][1], chosen[0][1], atol=1e-12)

@@ -66,7 +66,9 @@ class MultiStepTiming(MultiStep):
                 p = timing.retimed(plan, durations)
                 error = xi - (p.preview.dcm(local) + shift)
                 solution, _ = self.solve(walk, p, t, local, k, error, max_adjustment)
-                short = self._capture_shortfall(walk, p, t, k, xi[:2], solution.dv)
+                # in VRP space the soles move by the observer's shift (eqs. 47-49: the contact
+                # CoP lies -shift from the VRP): ξ is compared with them as ξ - shift
+                short = self._capture_shortfall(walk, p, t, k, (xi - shift)[:2], solution.dv)
                 score = (
                     float(solution.slack @ solution.slack)
                     + CAPTURE_WEIGHT * float(short @ short)
