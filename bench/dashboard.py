@@ -57,11 +57,18 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def two_step_lengths(dashboard: Dashboard) -> tuple[float, float]:
+    """The preset's step length and one 1 cm shorter (both inside any robot's reach)."""
+    length = float(dashboard.config.gait.step_length)
+    return round(length, 3), round(length - 0.01, 3)
+
+
 def preview_latency(dashboard: Dashboard, n: int = 30) -> np.ndarray:
     """Seconds from on_field_change to the preview drawn, alternating two step lengths."""
     out = []
+    lengths = two_step_lengths(dashboard)
     for i in range(n):
-        value = 0.20 if i % 2 else 0.21
+        value = lengths[i % 2]
         t0 = time.perf_counter()
         assert dashboard.editor.on_field_change("gait", "step_length", value)
         assert dashboard.preview.wait(dashboard.version)
@@ -120,8 +127,9 @@ def input_to_canvas_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndar
     box = box.first
     box.wait_for(state="visible", timeout=10_000)
     browser_ms, server_ms, misses = [], [], 0
+    lengths = two_step_lengths(dashboard)
     for i in range(n):
-        value = "0.21" if i % 2 == 0 else "0.2"
+        value = str(lengths[(i + 1) % 2])
         box.fill(value)
         page.wait_for_timeout(300)  # the page settles; only Enter submits the value
         seen = len(dashboard.preview.latency_s)
@@ -360,7 +368,8 @@ def main() -> None:
 
     from playwright.sync_api import sync_playwright
 
-    config = load_preset(args.preset).replace(gait={"n_steps": 20})
+    config = load_preset(args.preset)
+    config = config.replace(gait={**config.gait.model_dump(), "n_steps": 20})  # the rest kept
     server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
     dashboard = Dashboard(server, config, presets_dir=ROOT / "presets")
     url = f"http://127.0.0.1:{server.get_port()}"
@@ -379,7 +388,8 @@ def main() -> None:
         time.sleep(2.0)
 
         if args.no_measure:
-            take_screenshot(page, dashboard, Path(args.screenshot))
+            if args.screenshot:
+                take_screenshot(page, dashboard, Path(args.screenshot))
             browser.close()
             dashboard.stop()
             server.stop()

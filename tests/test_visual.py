@@ -21,6 +21,11 @@ ROOT = Path(__file__).resolve().parents[1]
     [
         ("talos", Config().replace(sim={"backend": "mujoco"})),
         ("g1", load_preset(ROOT / "presets" / "g1_walk.toml").replace(sim={"backend": "mujoco"})),
+        # COLLADA meshes (pycollada): without it the dashboard drew nothing for Romeo
+        (
+            "romeo",
+            load_preset(ROOT / "presets" / "romeo_walk.toml").replace(sim={"backend": "mujoco"}),
+        ),
     ],
 )
 def test_meshes_sit_on_the_simulated_links(model: str, config: Config) -> None:
@@ -68,3 +73,34 @@ def test_in_base_is_the_world_pose_without_the_base() -> None:
     moved = {m.link for m, a, b in zip(visual.meshes, bent.position, straight.position, strict=True)
              if np.linalg.norm(a - b) > 1e-6}  # fmt: skip
     assert moved == {"leg_left_5_link", "leg_left_6_link"}  # the shank rotates about its origin
+
+
+def test_a_mesh_no_reader_can_read_is_left_out_with_a_warning(monkeypatch) -> None:
+    """A robot file whose meshes include a format trimesh cannot read here (Romeo's COLLADA
+    without pycollada raised ImportError and the dashboard drew nothing at all): the robot is
+    built without those meshes and one warning names the files and why."""
+    import dcmviz.robots.visual as visual_module
+
+    robot = load_robot("talos")
+    full = robot.visual.meshes
+    read = visual_module._mesh_of
+
+    def failing(geometry):
+        if "arm" in str(geometry.meshPath):
+            raise ImportError("missing `pip install somereader`")
+        return read(geometry)
+
+    monkeypatch.setattr(visual_module, "_mesh_of", failing)
+    with pytest.warns(UserWarning, match=r"visual meshes could not be read.*somereader") as caught:
+        partial = visual_module.RobotVisual("talos", robot.model)
+    arms = [m for m in full if any("arm" in a for a in m.ancestors[:1]) or "arm" in m.link]
+    assert 0 < len(partial.meshes) < len(full)
+    assert len(full) - len(partial.meshes) >= len(arms) > 0
+    assert len(caught) == 1
+    session = Session(Config().replace(sim={"backend": "mujoco"}))
+    session.run(0.01)
+    poses = partial.in_world(session.tick().pose)
+    kept = [i for i, m in enumerate(full) if m.name in {p.name for p in partial.meshes}]
+    np.testing.assert_allclose(
+        poses.position, robot.visual.in_world(session.tick().pose).position[kept]
+    )

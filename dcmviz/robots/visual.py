@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import os
 import threading
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -95,9 +96,13 @@ def _read_visuals(
         )  # package://example-robot-data/…
         model = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())
         geometry = pin.buildGeomFromUrdf(model, path, pin.GeometryType.VISUAL, package_dirs=[share])
-    meshes, joints, placements = [], [], []
+    meshes, joints, placements, unread = [], [], [], []
     for obj in geometry.geometryObjects:
-        mesh = _mesh_of(obj)
+        try:
+            mesh = _mesh_of(obj)
+        except Exception as err:  # noqa: BLE001 - any reader's failure: the robot is drawn without it
+            unread.append(f"{os.path.basename(str(obj.meshPath))} ({type(err).__name__}: {err})")
+            continue
         if mesh is None or len(mesh.faces) == 0:
             continue
         rgba = np.clip(np.asarray(obj.meshColor, float), 0.0, 1.0)
@@ -114,6 +119,13 @@ def _read_visuals(
         )
         joints.append(int(obj.parentJoint))
         placements.append(np.array(obj.placement.homogeneous, float))
+    if unread:  # named once, when the visual is built: the rest of the robot is still drawn
+        warnings.warn(
+            f"{path}: {len(unread)} of {len(geometry.geometryObjects)} visual meshes could not "
+            f"be read and are not drawn: {'; '.join(unread[:3])}"
+            + (" …" if len(unread) > 3 else ""),
+            stacklevel=3,
+        )
     placements = np.array(placements, float).reshape(-1, 4, 4)
     return model, tuple(meshes), np.array(joints, int), placements
 
