@@ -147,6 +147,44 @@ def test_sustained_load_passes_what_lasts_and_drops_pushes():
     assert np.all(seen[after, 5] >= 20.0 * (t[after] - 1.0 - 0.5) - 1e-9)
 
 
+def test_sustained_load_is_the_dense_scan_of_its_window_also_after_a_resume():
+    """The passed load against a plain scan of the last n samples each tick (smallest magnitude
+    if the sign held, the ramp rule on the window's quarters), on random walks with sign
+    changes, steps and ramps; a copy resumed from get_state mid-way continues identically."""
+    from dcmviz.sim.wbc.sustained import RAMP_FLOOR, RAMP_TOLERANCE
+
+    rng = np.random.default_rng(7)
+    n, dt = 50, 0.002
+    load = SustainedLoad(n * dt, dt)
+    history: list[np.ndarray] = [np.zeros(6)] * n  # the window starts at zero
+    x = np.zeros(6)
+    resumed = None
+    for k in range(1500):
+        x = x + rng.normal(0.0, 2.0, 6) + (rng.random(6) < 0.01) * rng.normal(0.0, 40.0, 6)
+        if k % 300 < 100:
+            x[2] = 0.5 * (k % 300)  # a ramp
+        load.update(k * dt, x[:3], x[3:])
+        history = history[1:] + [x.copy()]
+        window = np.array(history).T  # (6, n), oldest first
+        low, high = window.min(axis=1), window.max(axis=1)
+        want = np.where(low > 0.0, low, np.where(high < 0.0, high, 0.0))
+        for c in range(6):  # the ramp rule, on the window's quarters
+            a, q1, q2, q3, e = window[c, [0, n // 4, n // 2, 3 * n // 4, n - 1]]
+            span, floor = e - a, RAMP_FLOOR[c // 3]
+            tol = RAMP_TOLERANCE * abs(span) + floor
+            quarters = (q1 - (a + 0.25 * span), q2 - (a + 0.5 * span), q3 - (a + 0.75 * span))
+            if want[c] != 0.0 and abs(span) > floor and all(abs(d) <= tol for d in quarters):
+                want[c] = e
+        np.testing.assert_array_equal(np.concatenate([load.force, load.moment]), want)
+        if k == 700:
+            resumed = SustainedLoad(n * dt, dt)
+            resumed.set_state(load.get_state())
+        if resumed is not None and k > 700:
+            resumed.update(k * dt, x[:3], x[3:])
+            np.testing.assert_array_equal(resumed.force, load.force)
+            np.testing.assert_array_equal(resumed.moment, load.moment)
+
+
 def test_the_trunk_leans_with_the_robot_under_a_sustained_pull(robot):
     """A pull F e_y held at height h above the CoM: the CoM sits d = (z + h) F/(m g) from the
     CoP, so R_d turns e_z to (0, −d, z)/|·| (the trunk leans away from the pull)."""
