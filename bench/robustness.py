@@ -16,7 +16,12 @@ numbers (``walking_config``), never tuned per robot:
 
 ``--sim lip`` runs the same walker on the point mass with the robot's mass, CoM height, feet and
 reach (the ceiling of what the paper's controller does with those numbers; the humanoid in
-MuJoCo, the default, is what a user sees).
+MuJoCo, the default, is what a user sees).  ``--lever`` (with ``--sim lip``) scales its forces by
+(z + h)/z, z the CoM height and h the torso's height above the CoM (``Robot.push_lever_m``):
+pushed at the torso, a humanoid whose feet counter the push's moment (no change of angular
+momentum) has its CoM accelerated as the point mass by F (z + h)/z (the moment about the CoM,
+h F, moves the CoP by h F/(m g) for the same ground force), so this is the ceiling of the paper's
+controller for the torso push without angular momentum (``lever_factor``).
 
 Per start time (push) and per side (pull) it prints which levels were survived, the first
 fall, and the holes: levels that fell although a higher level of the same row was survived
@@ -81,8 +86,20 @@ def walking_config(
     return config.model_copy(update={"pushes": []})
 
 
-def push_config(base: Config, mass: float, scale: float, start: float) -> Config:
-    f = scale * PAPER_FORCE_N * mass / PAPER_MASS_KG
+def lever_factor(robot: str, body: str = "torso") -> float:
+    """(z + h)/z: a push on ``body``, h above the CoM (standing), loads the CoP as a push at the
+    CoM (z above the soles) this many times stronger when the feet counter its moment h F: the
+    ground's moment about the CoM, (p − c) m g + z f = h F, gives m c̈ = F (z + h)/z − m g (p − c)/z
+    (lateral, f the ground's horizontal force, F the push)."""
+    r = load_robot(robot)
+    z = r.spec.com_height_m
+    return (z + r.push_lever_m(body)) / z
+
+
+def push_config(
+    base: Config, mass: float, scale: float, start: float, factor: float = 1.0
+) -> Config:
+    f = scale * factor * PAPER_FORCE_N * mass / PAPER_MASS_KG
     pushes = [
         Push(start=start, duration=PUSH_S, force=(0.0, f, 0.0), ramp=0.0, body="torso"),
         Push(start=start + PUSH_GAP_S, duration=PUSH_S, force=(0.0, -f, 0.0), ramp=0.0,
@@ -91,8 +108,10 @@ def push_config(base: Config, mass: float, scale: float, start: float) -> Config
     return base.model_copy(update={"pushes": pushes})
 
 
-def pull_config(base: Config, mass: float, level_pct: float, side: float) -> Config:
-    f = side * level_pct / 100.0 * mass * GRAVITY
+def pull_config(
+    base: Config, mass: float, level_pct: float, side: float, factor: float = 1.0
+) -> Config:
+    f = side * factor * level_pct / 100.0 * mass * GRAVITY
     push = Push(
         start=PULL_START_S,
         duration=PULL_DURATION_S,
@@ -224,6 +243,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--sim", choices=("mujoco", "lip"), default="mujoco",
                    help="the humanoid (mujoco) or the point mass with its numbers (lip)")  # fmt: skip
+    p.add_argument("--lever", action="store_true",
+                   help="with --sim lip: forces × (z + h)/z, the torso push's load on the CoP")  # fmt: skip
     p.add_argument("--no-observer", action="store_true", help="control.observer = false")
     p.add_argument("--only", choices=("push", "pull"))
     p.add_argument("--set", action="append", default=[], dest="overrides",
@@ -236,6 +257,8 @@ def main(argv: list[str] | None = None) -> int:
         help="whole-body QP gain (dcmviz.robots.gains.Gains field), for experiments",
     )
     args = p.parse_args(argv)
+    if args.lever and args.sim != "lip":
+        p.error("--lever: only with --sim lip (the humanoid has its torso)")
     gains = tuple((k.strip(), float(v)) for k, v in (g.split("=", 1) for g in args.gain))
 
     overrides = list(args.overrides)
@@ -245,6 +268,7 @@ def main(argv: list[str] | None = None) -> int:
         overrides.append("control.observer=false")
     base = walking_config(args.robot, args.preset, overrides, args.sim)
     mass = load_robot(args.robot).spec.mass_kg
+    factor = lever_factor(args.robot) if args.lever else 1.0
     cycle = 2.0 * (base.gait.t_ss + base.gait.t_ds)
     offsets = [round(cycle * i / args.starts, 3) for i in range(args.starts)]
     sides = [s.strip() for s in args.pull_sides.split(",") if s.strip()]
@@ -252,14 +276,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.only in (None, "push"):
         for off in offsets:
             for sc in args.scales:
-                cfg = push_config(base, mass, sc, PUSH_FIRST_S + off)
+                cfg = push_config(base, mass, sc, PUSH_FIRST_S + off, factor)
                 jobs.append(Job("push", f"start {PUSH_FIRST_S + off:.2f}s", sc, cfg,
                                 PUSH_DURATION_S, gains))  # fmt: skip
     if args.only in (None, "pull"):
         for side in sides:
             sign = -1.0 if side.startswith("-") else 1.0
             for lv in args.levels:
-                cfg = pull_config(base, mass, lv, sign)
+                cfg = pull_config(base, mass, lv, sign, factor)
                 jobs.append(Job("pull", f"pull {'+y' if sign > 0 else '-y'}", lv, cfg,
                                 PULL_DURATION_S, gains))  # fmt: skip
     g = base.gait
@@ -267,7 +291,8 @@ def main(argv: list[str] | None = None) -> int:
         f"{args.robot} ({base.sim.backend}): {mass:.2f} kg; gait {g.n_steps} steps of {g.step_length} m, width "
         f"{g.step_width} m, T_ss {g.t_ss} s, T_ds {g.t_ds} s; b {base.dcm.b} s; recovery "
         f"{base.control.recovery}; observer {base.control.observer}; {len(jobs)} rollouts, "
-        f"{args.jobs} jobs{'; gains ' + str(dict(gains)) if gains else ''}",
+        f"{args.jobs} jobs{'; gains ' + str(dict(gains)) if gains else ''}"
+        f"{f'; forces x {factor:.3f} (the torso lever, --lever)' if args.lever else ''}",
         flush=True,
     )
     t0 = time.perf_counter()
@@ -288,6 +313,7 @@ def main(argv: list[str] | None = None) -> int:
         "recovery": base.control.recovery,
         "observer": base.control.observer,
         "gains": dict(gains),
+        "lever_factor": factor,
         "wall_time_s": wall,
         "rollouts": results,
     }
