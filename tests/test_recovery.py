@@ -233,11 +233,13 @@ def test_the_lateral_priority_support_moves_with_the_observers_shift() -> None:
 
 @pytest.mark.parametrize("strategy_name", ["multi_step_timing", "crossover"])
 def test_timing_choice_is_the_same_with_the_observers_shift(strategy_name: str) -> None:
-    """Under a sustained force the observer shifts ξ_ref and v_ref by s (eqs. 47–49) and the
-    contact CoP lies −s from the VRP: the same DCM error relative to the shifted reference is
-    the same recovery problem.  The re-timing's choice must not depend on s (it compared ξ with
+    """Under a held force the observer shifts ξ_ref and v_ref by s (eqs. 47–49) and the contact
+    CoP lies −s from the VRP: the same DCM error relative to the shifted reference is the same
+    recovery problem.  The re-timing's choice must not depend on a held s (it compared ξ with
     the soles themselves in its capture term: a 25 % pull on Talos leaned ξ 0.2 m off them,
-    the timing QP stretched the phases and Talos fell where next_step walks)."""
+    the timing QP stretched the phases and Talos fell where next_step walks).  A push's shift
+    is not held (test_sweep_bounds: the point mass with the observer survives 85 % of its
+    stance-edge bound)."""
     config = Config().replace(sim={"backend": "lip"}, control={"recovery": strategy_name})
     s = Session(config, backend="lip")
     plan = s.plan
@@ -253,7 +255,9 @@ def test_timing_choice_is_the_same_with_the_observers_shift(strategy_name: str) 
         xi = walk.plan.preview.dcm(local) + offset + error
         strategy.adjust(walk, t, local, error, config.control.max_step_adjustment)
         assert strategy.last_slack > 1e-3  # the QP leaves the CoP short: retime compares
-        retimed = strategy.retime(walk, t, xi, offset, config.control.max_step_adjustment)
+        retimed = strategy.retime(
+            walk, t, xi, offset, config.control.max_step_adjustment, held=offset
+        )
         assert retimed is not None
         chosen.append((strategy._timing_target.copy(), retimed.preview.durations.copy()))
     np.testing.assert_allclose(chosen[1][0], chosen[0][0], atol=1e-12)

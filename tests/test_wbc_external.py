@@ -13,6 +13,7 @@ import pytest
 
 from dcmviz import GRAVITY
 from dcmviz.config import load_preset
+from dcmviz.dcm.sustained import SustainedLoad
 from dcmviz.robots import SIDES, Robot, load_robot
 from dcmviz.run import load_config
 from dcmviz.session import Session
@@ -23,7 +24,6 @@ from dcmviz.sim.wbc import (
     Layout,
     TrunkTilt,
 )
-from dcmviz.sim.wbc.sustained import SustainedLoad
 from dcmviz.walker import Walker
 from dcmviz.walker.state import FootTarget, WalkerCommand
 
@@ -151,7 +151,7 @@ def test_sustained_load_is_the_dense_scan_of_its_window_also_after_a_resume():
     """The passed load against a plain scan of the last n samples each tick (smallest magnitude
     if the sign held, the ramp rule on the window's quarters), on random walks with sign
     changes, steps and ramps; a copy resumed from get_state mid-way continues identically."""
-    from dcmviz.sim.wbc.sustained import RAMP_FLOOR, RAMP_TOLERANCE
+    from dcmviz.dcm.sustained import RAMP_FLOOR, RAMP_TOLERANCE
 
     rng = np.random.default_rng(7)
     n, dt = 50, 0.002

@@ -40,6 +40,7 @@ class RecoveryStrategy(ABC):
 
     name: str = ""
     crosses_legs: bool = False  # may place a footstep across the stance foot (crossover)
+    uses_held_load: bool = False  # retime plans ahead with the held part of the load
 
     def __init__(self, robot: Robot, terrain: Terrain, b: float, dt: float) -> None:
         self.robot, self.spec = robot, robot.spec
@@ -53,10 +54,18 @@ class RecoveryStrategy(ABC):
         the walked plan); each footstep moves at most ``max_adjustment`` (m) per axis."""
 
     def retime(
-        self, walk: Walk, t: float, xi: np.ndarray, shift: np.ndarray, max_adjustment: float
+        self,
+        walk: Walk,
+        t: float,
+        xi: np.ndarray,
+        shift: np.ndarray,
+        max_adjustment: float,
+        held: np.ndarray | None = None,
     ) -> GaitPlan | None:
         """A re-timed plan to walk from now on, or None to keep the walked one (the default);
-        ``xi`` is the measured DCM, ``shift`` the observer's shift of the references (eq. 48)."""
+        ``xi`` is the measured DCM, ``shift`` the observer's shift of the references (eq. 48),
+        ``held`` the part of it from a load that has lasted (a pull; a push's is not: it will
+        be over before the steps planned now land), None: all of ``shift``."""
         return None
 
     def shape_vrp(

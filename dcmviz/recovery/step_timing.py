@@ -28,6 +28,7 @@ class MultiStepTiming(MultiStep):
     re-timed with them."""
 
     name = "multi_step_timing"
+    uses_held_load = True
 
     def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)
@@ -36,7 +37,13 @@ class MultiStepTiming(MultiStep):
         self._nominal_plan: GaitPlan | None = None  # the plan the target was chosen against
 
     def retime(
-        self, walk: Walk, t: float, xi: np.ndarray, shift: np.ndarray, max_adjustment: float
+        self,
+        walk: Walk,
+        t: float,
+        xi: np.ndarray,
+        shift: np.ndarray,
+        max_adjustment: float,
+        held: np.ndarray | None = None,
     ) -> GaitPlan | None:
         plan = walk.plan
         if walk.nominal_plan is not self._nominal_plan:  # a new walk or a replanned horizon
@@ -62,13 +69,18 @@ class MultiStepTiming(MultiStep):
             previous = self._timing_target
             if previous is not None and len(previous) == len(plan.preview.durations):
                 candidates.append(previous)
+            # the capture term looks ahead to footstep k+1's support: in VRP space the soles move
+            # by the shift of a load that lasts (eqs. 47-49: the contact CoP lies -shift from
+            # the VRP), so ξ is compared with them as ξ - held; a push's shift is not (it is
+            # over by then: held 0).  With ξ against the soles themselves a pull's lean looked
+            # like an uncaught push (Talos fell at 25 %); with the whole shift a push looked
+            # caught (the point mass fell at 85 % of its stance-edge bound)
+            capture_xi = (xi - (shift if held is None else held))[:2]
             for i, durations in enumerate(candidates):
                 p = timing.retimed(plan, durations)
                 error = xi - (p.preview.dcm(local) + shift)
                 solution, _ = self.solve(walk, p, t, local, k, error, max_adjustment)
-                # in VRP space the soles move by the observer's shift (eqs. 47-49: the contact
-                # CoP lies -shift from the VRP): ξ is compared with them as ξ - shift
-                short = self._capture_shortfall(walk, p, t, k, (xi - shift)[:2], solution.dv)
+                short = self._capture_shortfall(walk, p, t, k, capture_xi, solution.dv)
                 score = (
                     float(solution.slack @ solution.slack)
                     + CAPTURE_WEIGHT * float(short @ short)

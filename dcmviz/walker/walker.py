@@ -31,15 +31,19 @@ from dcmviz.dcm import (
     reference_shift,
     vrp_tracking,
 )
+from dcmviz.dcm.sustained import SustainedLoad
 from dcmviz.gait import GaitPlan, Planner
 from dcmviz.gait.height import walk_height_m
 from dcmviz.gait.terrain import Terrain, terrain_of
 from dcmviz.gait.walk import Walk
 from dcmviz.recovery import NO_ADJUSTMENT, Adjustment, RecoveryStrategy, make_strategy
 from dcmviz.robots import SIDES, Robot
+from dcmviz.robots.gains import Gains
 from dcmviz.walker.state import FootTarget, MeasuredState, WalkerCommand, WalkerStatus
 
 E_Z = np.array([0.0, 0.0, 1.0])
+_NO_MOMENT = np.zeros(3)
+_NO_MOMENT.flags.writeable = False
 
 
 class Walker:
@@ -69,6 +73,9 @@ class Walker:
         self.dt = float(dt)
         self.b = config.dcm.b
         self.observer = DisturbanceObserver(self.mass, config.control.k_f)
+        # the part of F̂ that has lasted (a pull, not a push), for a strategy that plans ahead
+        # with it (RecoveryStrategy.uses_held_load): the whole-body QP's notion of held
+        self.held = SustainedLoad(Gains.for_robot(robot).sustained_time_s, self.dt)
         self.walk: Walk | None = None
         self._first_version = plan_version
         self._adjustment: Adjustment = NO_ADJUSTMENT
@@ -89,6 +96,7 @@ class Walker:
         self.observer.k_f = float(control.k_f)
         if control.recovery != self.control.recovery:
             self.strategy = self._strategy(control)
+            self.held.reset()  # fed only for a strategy that uses it
         self.config = config
         self.control = control
 
@@ -107,6 +115,7 @@ class Walker:
         self._adjustment = NO_ADJUSTMENT
         self._last_contact_force = self.mass * GRAVITY * E_Z
         self.observer.reset(state.com_velocity)
+        self.held.reset()
         self._status = None
         return self.walk.plan
 
@@ -135,8 +144,18 @@ class Walker:
             shift = shift + moment_shift(state.external_moment, m)
         if cfg.observer:
             shift = self._lean_height(shift, self._planned_height(t, contact.swing_side))
+        held = None
+        if self.strategy.uses_held_load:
+            held = np.zeros(3)
+            if cfg.observer:  # the shift of the load expected to last: F̂ held for a second
+                self.held.update(t, f_hat, _NO_MOMENT)
+                held = reference_shift(self.held.force, m, b)
+                if state.external_moment is not None:  # (the backend's held moment)
+                    held = held + moment_shift(state.external_moment, m)
         if cfg.step_adjustment and not touched:  # a strategy may re-time the walk first
-            plan = self.strategy.retime(walk, t, state.dcm(b), shift, cfg.max_step_adjustment)
+            plan = self.strategy.retime(
+                walk, t, state.dcm(b), shift, cfg.max_step_adjustment, held=held
+            )
             if plan is not None:
                 walk.retime(t, plan)
                 contact = plan.contact(t)

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import daqp
 import numpy as np
 
+from dcmviz.dcm.sustained import SustainedLoad
 from dcmviz.robots import SIDES, Robot
 from dcmviz.robots.gains import Gains
 from dcmviz.sim.wbc.constraints import (
@@ -38,7 +39,6 @@ from dcmviz.sim.wbc.constraints import (
 from dcmviz.sim.wbc.context import Context, Kinematics
 from dcmviz.sim.wbc.layout import Layout
 from dcmviz.sim.wbc.legs import LegClearance
-from dcmviz.sim.wbc.sustained import SustainedLoad
 from dcmviz.sim.wbc.tasks import (
     AngularMomentumTask,
     AnkleStops,
