@@ -107,6 +107,12 @@ DETOUR_SAMPLES = 24  # points of a path checked against the stance sole
 MAX_DETOUR_M = 0.3  # the farthest a swing goes round the stance sole
 
 
+def _bump_value(s: np.ndarray | float) -> np.ndarray | float:
+    """B(s) = 64 s³ (1 − s)³ for s in [0, 1] (floats or arrays): the detour's and the swing
+    height's profile."""
+    return 64 * s**3 * (1 - s) ** 3
+
+
 def _bump(s: float) -> tuple[float, float, float]:
     """B(s) = 64 s³ (1 − s)³ (1 at mid-swing; zero value, rate and acceleration at both ends)
     with dB/ds and d²B/ds²."""
@@ -158,7 +164,7 @@ def detour(
     if gap.min() >= need - 1e-9:
         return 0.0, 0.0
     c, sn = math.cos(stance.yaw), math.sin(stance.yaw)
-    bump = 64 * s**3 * (1 - s) ** 3
+    bump = _bump_value(s)
     best, best_gap = (0.0, 0.0), float(gap.min())
     for d in np.arange(0.01, MAX_DETOUR_M + 1e-9, 0.01):
         # round the toe or the heel, or out to either side: the first to clear at this size
@@ -335,15 +341,14 @@ class SwingTrajectory:
         out[:, :2] = np.vander(tau, 6, increasing=True) @ self.coeffs[:, :2]
         if self.detour != (0.0, 0.0) and T_seg > 0.0:
             u = tau / T_seg
-            out[:, :2] += np.outer(64 * u**3 * (1 - u) ** 3, self.detour)
+            out[:, :2] += np.outer(_bump_value(u), self.detour)
         s = np.clip((self.t_seg + tau - self.t_lift) / T, 0.0, 1.0)
         z0, z1 = self.start[2], self.target[2]
         if self.top is not None:
             r, _, _, f, _, _ = _terrain_profile(s)
             out[:, 2] = z0 + (self.top - z0) * r + (z1 - self.top) * f
         else:
-            q = s**3 * (10 - 15 * s + 6 * s * s)
-            out[:, 2] = z0 + (z1 - z0) * q + self.height * 64 * s**3 * (1 - s) ** 3
+            out[:, 2] = z0 + (z1 - z0) * _smoothstep5(s)[0] + self.height * _bump_value(s)
         out.flags.writeable = False
         return out
 

@@ -33,6 +33,7 @@ CROSS_RATIO = 0.5  # a crossing is taken when it scores below this fraction of t
 MIN_SHORTFALL_M = 0.005  # ... and the uncrossed answer leaves the CoP at least this far short
 MODES = ("front", "back")
 TOWARDS_STANCE_DEG = 60.0  # a crossing is considered for DCM errors this close to across
+_COS_TOWARDS = float(np.cos(np.radians(TOWARDS_STANCE_DEG)))
 
 
 class Crossover(MultiStepTiming):
@@ -158,7 +159,7 @@ class Crossover(MultiStepTiming):
         c, s = np.cos(stance.yaw), np.sin(stance.yaw)
         ex, ey = float(xi_error[0]), float(xi_error[1])
         across = -SIDE_SIGN[step.side] * (-s * ex + c * ey)  # towards the stance foot's side
-        return across > np.cos(np.radians(TOWARDS_STANCE_DEG)) * np.hypot(ex, ey)
+        return across > _COS_TOWARDS * np.hypot(ex, ey)
 
     def _crossed(self, walk: Walk, plan: GaitPlan, k: int) -> bool:
         """True while the legs stand crossed: footstep k's foot stands across its stance foot
