@@ -11,6 +11,15 @@ angles by URDF joint name, any joint not given at the robot's nominal posture.
     poses = visual.in_world(tick.pose)   # poses.position[i], poses.wxyz[i] place visual.meshes[i]
 
 No viser and no rerun here: each shell draws the same meshes with its own public API.
+
+The meshes are a display's level of detail: a robot whose visual meshes have more than
+``DISPLAY_FACES`` triangles in all is decimated (quadric edge collapse, trimesh's
+``simplify_quadric_decimation``), every mesh by the same ratio.  Headless Chromium draws a
+triangle in about 1.3 µs in software WebGL, and every change in the page waits for the next
+frame: Talos's 159 k triangles made a frame take ~250 ms longer than the rest of the scene
+(bench/dashboard.py); at 24 k the robot costs ~60 ms and looks the same at dashboard distances
+(each mesh keeps its extent within millimetres, tests/test_visual.py).  Collision geometry
+(MuJoCo) and kinematics never use these meshes.
 """
 
 from __future__ import annotations
@@ -30,6 +39,10 @@ from dcmviz.robots.file import example_robot_data_dir
 from dcmviz.robots.heap import release_freed_memory
 from dcmviz.robots.model import RobotModel
 from dcmviz.robots.pose import RobotPose
+
+
+DISPLAY_FACES = 24_000  # most triangles of one robot's visual meshes (a display's level of detail)
+MIN_DECIMATED_FACES = 64  # a mesh is never decimated below this many triangles
 
 
 @dataclass(frozen=True)
@@ -81,6 +94,27 @@ def _ancestors(model: pin.Model, frame_id: int) -> tuple[str, ...]:
     return tuple(names)
 
 
+def display_ratio(faces: list[int], budget: int | None = None) -> float:
+    """The share of its triangles every mesh keeps so that all of them fit ``budget``
+    (DISPLAY_FACES unless given; 1.0 when they already fit)."""
+    budget = DISPLAY_FACES if budget is None else budget
+    total = sum(faces)
+    return 1.0 if total <= budget else budget / total
+
+
+def decimated(mesh: trimesh.Trimesh, ratio: float) -> trimesh.Trimesh:
+    """``mesh`` with about ``ratio`` of its triangles (never fewer than MIN_DECIMATED_FACES);
+    the mesh itself when nothing is to remove."""
+    target = max(MIN_DECIMATED_FACES, int(round(ratio * len(mesh.faces))))
+    if ratio >= 1.0 or target >= len(mesh.faces):
+        return mesh
+    mesh = mesh.copy()
+    mesh.merge_vertices()  # a mesh read as triangle soup (STL) collapses only once welded
+    # aggression 3 of fast_simplification's 0 ("slow and good") to 10: at its default 7 the G1's
+    # hands lost their fingers' shape (area -15 %), at 3 they keep it (-2 %)
+    return mesh.simplify_quadric_decimation(face_count=target, aggression=3)
+
+
 def _read_visuals(
     path: str,
 ) -> tuple[pin.Model, tuple[VisualMesh, ...], np.ndarray, np.ndarray]:
@@ -96,7 +130,7 @@ def _read_visuals(
         )  # package://example-robot-data/…
         model = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())
         geometry = pin.buildGeomFromUrdf(model, path, pin.GeometryType.VISUAL, package_dirs=[share])
-    meshes, joints, placements, unread = [], [], [], []
+    read, unread = [], []
     for obj in geometry.geometryObjects:
         try:
             mesh = _mesh_of(obj)
@@ -105,6 +139,11 @@ def _read_visuals(
             continue
         if mesh is None or len(mesh.faces) == 0:
             continue
+        read.append((obj, mesh))
+    ratio = display_ratio([len(mesh.faces) for _, mesh in read])
+    meshes, joints, placements = [], [], []
+    for obj, mesh in read:
+        mesh = decimated(mesh, ratio)
         rgba = np.clip(np.asarray(obj.meshColor, float), 0.0, 1.0)
         meshes.append(
             VisualMesh(
