@@ -377,7 +377,7 @@ def main() -> None:
     from playwright.sync_api import sync_playwright
 
     config = load_preset(args.preset)
-    config = config.replace(gait={**config.gait.model_dump(), "n_steps": 20})  # the rest kept
+    config = config.replace(gait={"n_steps": 20})  # the rest of the preset's gait kept
     server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
     dashboard = Dashboard(server, config, presets_dir=ROOT / "presets")
     url = f"http://127.0.0.1:{server.get_port()}"

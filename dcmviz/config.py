@@ -286,10 +286,19 @@ class Config(_Section):
         return self
 
     def replace(self, **sections: Any) -> Config:
-        """A new validated Config with some sections (dicts or models) replaced."""
+        """A new validated Config with some sections changed: a dict changes the keys it names
+        and keeps the section's others (``replace(control={"observer": False})`` keeps the
+        preset's gains); a model, a list or a value replaces the whole entry.  (Before, a dict
+        replaced its whole section, so every key it left out went back to its default: tests
+        that turned the observer off and then picked a strategy ran with it on again.)"""
         data = self.to_dict()
         for key, value in sections.items():
-            data[key] = value.model_dump() if isinstance(value, BaseModel) else value
+            if isinstance(value, BaseModel):
+                data[key] = value.model_dump()
+            elif isinstance(value, dict) and isinstance(data.get(key), dict):
+                data[key] = {**data[key], **value}
+            else:
+                data[key] = value
         return config_from_dict(data)
 
     def to_dict(self) -> dict[str, Any]:

@@ -193,3 +193,26 @@ def test_turning_that_pivots_out_of_reach_is_refused():
     for word in ("gait.step_length", "gait.turn", f"{dx:.3f}", "0.45 m"):
         assert word in str(err.value), str(err.value)
     assert config_from_dict({"gait": {"step_length": 0.40, "turn": 0.3}}).gait.turn == 0.3
+
+
+def test_replace_with_a_dict_changes_only_the_keys_it_names():
+    """A dict changes the keys it names and keeps the rest of the section (a preset's gains,
+    the observer switched off before a strategy is picked); a model or a list replaces the
+    whole entry.  Before, a dict replaced its whole section with defaults for the keys it left
+    out (the observer came back on in tests/test_sweep_bounds.py)."""
+    preset = load_preset(Path(__file__).parents[1] / "presets" / "g1_walk.toml")
+    off = preset.replace(control={"observer": False})
+    picked = off.replace(control={"recovery": "multi_step_timing"})
+    assert (off.control.observer, picked.control.observer) == (False, False)
+    assert picked.control.recovery == "multi_step_timing"
+    changed = {k for k, v in picked.control.model_dump().items()
+               if v != preset.control.model_dump()[k]}  # fmt: skip
+    assert changed == {"observer", "recovery"}
+    assert picked.gait == preset.gait and picked.robot == preset.robot  # untouched sections
+    longer = preset.replace(gait={"n_steps": preset.gait.n_steps + 2})
+    assert longer.gait.step_length == preset.gait.step_length != Config().gait.step_length
+    assert longer.gait.n_steps == preset.gait.n_steps + 2
+    assert preset.replace(control=Config().control).control == Config().control  # a model: whole
+    assert not preset.replace(pushes=[]).pushes
+    with pytest.raises(ConfigError, match="gait.n_steps"):
+        preset.replace(gait={"n_steps": 0})

@@ -50,7 +50,7 @@ def with_controller(config: Config, name: str) -> Config:
     """``config`` with the step adjustment / observer (/ recovery) keys of controller ``name``."""
     if name == PRESET_CONTROLLER:
         return config
-    return config.replace(control={**config.control.model_dump(), **controller_flags(name)})
+    return config.replace(control=controller_flags(name))
 
 
 @dataclass
