@@ -21,7 +21,8 @@
    animation frame in which the preview plots' canvases show other pixels (target ≤ 150 ms median on an idle machine), with the server-side
    part of it; and scrubbing, the walk paused and the time slider swept through the buffer
    (the last 60 s) at 60 seeks a second: frames the scene draws per second (target ≥ 20) and
-   the buffer's memory.
+   the buffer's memory; and where a frame goes (:func:`frame_split`: as drawn, without the
+   robot, without the floor grid, without both).
 4. ``--first-view PNG``: what a newcomer sees (the README's picture): ``python app.py``'s
    dashboard, a fresh 1400 × 800 tab opened on it, photographed a few seconds into the walk
    (headless Chromium's "software WebGL" notice closed: a browser with a GPU shows none).
@@ -163,6 +164,43 @@ def input_to_canvas_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndar
         "headless Chromium draws the 3-D scene in software WebGL"
     )
     return np.array(browser_ms), np.array(server_ms)
+
+
+def frame_split(page, dashboard: Dashboard, seconds: float = 4.0) -> None:
+    """Where a frame of the page goes, the walk running: the median time between its animation
+    frames as drawn, without the robot's meshes, without the floor grid, and without both (the
+    rest of the scene and the page).  The robot is hidden by keeping its meshes invisible while
+    the render thread poses them (this bench's own override, undone afterwards)."""
+    view = dashboard.view.robot_view
+    if view is None:
+        return
+    show = type(view).set_visible
+    grid = dashboard.ground.handle
+
+    def median_ms(robot: bool, floor: bool) -> float:
+        view.set_visible = lambda visible: show(view, visible and robot)
+        show(view, robot)
+        grid.visible = floor
+        time.sleep(0.5)  # the page catches up
+        page.evaluate("window.__dcmvizWatch.frames = []")
+        time.sleep(seconds)
+        return float(np.median(np.diff(page.evaluate("window.__dcmvizWatch.frames"))))
+
+    try:
+        cases = {(r, g): median_ms(r, g) for r, g in ((True, True), (False, True),
+                                                       (True, False), (False, False))}  # fmt: skip
+    finally:
+        del view.set_visible
+        show(view, True)
+        grid.visible = True
+    faces = sum(len(m.faces) for m in view.visual.meshes)
+    full = cases[(True, True)]
+    print(
+        f"  where a frame goes (median ms between animation frames): as drawn {full:.0f}; "
+        f"without the robot ({len(view.visual.meshes)} meshes, {faces / 1e3:.1f} k triangles) "
+        f"{cases[(False, True)]:.0f}; without the floor grid {cases[(True, False)]:.0f}; "
+        f"without both {cases[(False, False)]:.0f} (the rest of the scene and the page)"
+    )
 
 
 def scrub_fps(dashboard: Dashboard, sweeps: int = 2, seconds_per_sweep: float = 3.0) -> None:
@@ -441,6 +479,7 @@ def main() -> None:
             f"(editor → plan → plots sent): median {np.median(server_ms):.0f} ms; the rest is "
             "the websocket, the page's React update and uPlot's repaint"
         )
+        frame_split(page, dashboard)
         deadline = time.time() + 120
         while dashboard.loop.timeline.seconds_kept() < 59.5 and time.time() < deadline:
             time.sleep(0.5)  # the buffer fills with the walk (the last 60 s are kept)

@@ -40,7 +40,6 @@ from dcmviz.robots.heap import release_freed_memory
 from dcmviz.robots.model import RobotModel
 from dcmviz.robots.pose import RobotPose
 
-
 DISPLAY_FACES = 24_000  # most triangles of one robot's visual meshes (a display's level of detail)
 MIN_DECIMATED_FACES = 64  # a mesh is never decimated below this many triangles
 
