@@ -25,7 +25,10 @@ controller for the torso push without angular momentum (``lever_factor``).
 
 Per start time (push) and per side (pull) it prints which levels were survived, the first
 fall, and the holes: levels that fell although a higher level of the same row was survived
-(survival should be monotone in the force).  ``--json`` writes the same as data.
+(survival should be monotone in the force).  With MuJoCo it also walks the gait once unpushed
+and names the joints nearest their torque limits in single support (``torque_headroom``: a
+robot whose knees are at their limit walking has none left for a push).  ``--json`` writes the
+same as data (``torque_headroom``: joint, limit_nm, at_limit_share, peak_share).
 """
 
 from __future__ import annotations
@@ -39,6 +42,8 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -167,6 +172,39 @@ def rollout(job: Job) -> dict[str, Any]:
         "max_dcm_error_m": float(metrics.max_dcm_error_m),
         "wall_s": time.perf_counter() - t0,
     }
+
+
+AT_LIMIT = 0.98  # |τ| at least this share of a joint's torque limit counts as at the limit
+
+
+def torque_headroom(config: Config, gains: tuple[tuple[str, float], ...] = ()) -> list[dict]:
+    """The walk of ``config`` in MuJoCo without pushes or pulls: per actuated joint, the share
+    of single-support ticks in which the whole-body QP's torque is at the joint's limit
+    (≥ AT_LIMIT of it) and its peak |τ|/limit, the busiest joints first.  A joint at its limit
+    while the robot walks unpushed leaves nothing for a push or a pull (Romeo's stance knees:
+    30–50 % of single support; Talos and the G1: none)."""
+    from dcmviz.session import Session
+
+    _with_gains(gains)
+    session = Session(config.model_copy(update={"pushes": []}), backend="mujoco")
+    robot = load_robot(config.robot.model)
+    model = robot.pin_model
+    names = [model.names[j] for j in range(2, model.njoints)]  # 0 universe, 1 floating base
+    limit = robot.torque_limit
+    share = []
+    while session.t < PUSH_DURATION_S and not session.fell:
+        command = session.step()
+        if command.swing_side is not None:  # single support: one leg holds the robot
+            share.append(np.abs(session.backend.wbc.last.tau) / limit)
+    a = np.array(share).reshape(-1, len(names))
+    at_limit = (a >= AT_LIMIT).mean(axis=0) if len(a) else np.zeros(len(names))
+    peak = a.max(axis=0) if len(a) else np.zeros(len(names))
+    order = np.lexsort((-peak, -at_limit))
+    return [
+        {"joint": names[i], "limit_nm": float(limit[i]), "at_limit_share": float(at_limit[i]),
+         "peak_share": float(peak[i])}
+        for i in order
+    ]  # fmt: skip
 
 
 class _Serial:
@@ -332,6 +370,13 @@ def main(argv: list[str] | None = None) -> int:
         out["pull"] = {"levels_pct": args.levels, "rows": s}
         print(f"\npull ramped over {PULL_RAMP_S:g} s and held, % of m g ({mass * GRAVITY:.0f} N)")
         print(table("pull % mg", "%", s, args.levels))
+    if args.sim == "mujoco":
+        busy = torque_headroom(base, gains)
+        out["torque_headroom"] = busy
+        print("\nunpushed walk, single support: the joints nearest their torque limits "
+              f"(share of ticks at ≥ {AT_LIMIT:.0%} of the limit, peak |τ|/limit):")
+        print("  " + "; ".join(f"{j['joint']} ({j['limit_nm']:.0f} N m) {j['at_limit_share']:.0%}, "
+                              f"peak {j['peak_share']:.2f}" for j in busy[:4]))  # fmt: skip
     print(f"\n{len(jobs)} rollouts in {wall:.0f} s wall")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -12,6 +12,7 @@ walk in, and the stance knee gave way.  Lowered from the plan's own height it su
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from helpers import robustness_bench
 
@@ -53,3 +54,29 @@ def test_step_timing_holds_the_pulls_next_step_holds(side: float) -> None:
     the pull, ξ sat off them, and the timing QP stretched the phases as for a push."""
     for level in (25.0, 30.0):
         assert survives_pull("talos", level, side, "multi_step_timing"), level
+
+
+def test_the_bench_names_the_joints_at_their_torque_limits_walking_unpushed() -> None:
+    """bench/robustness.py's torque headroom against MuJoCo's own actuator forces, joint by
+    joint (actuators looked up by name, not by order): Romeo's stance knees are at their
+    38 N m limit in part of every single support even unpushed (why it falls at small pulls),
+    Talos's joints never are."""
+    import mujoco
+
+    rb = robustness_bench()
+    config = rb.walking_config("romeo")
+    busy = {j["joint"]: j for j in rb.torque_headroom(config)}
+    session = Session(config.model_copy(update={"pushes": []}), backend="mujoco")
+    model, data = session.backend.model, session.backend.data
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i) for i in range(model.nu)]
+    limit = model.actuator_ctrlrange[:, 1]
+    rows = []
+    while session.t < rb.PUSH_DURATION_S and not session.fell:
+        if session.step().swing_side is not None:
+            rows.append(np.abs(data.actuator_force) / limit)
+    at_limit = (np.array(rows) >= rb.AT_LIMIT).mean(axis=0)
+    for i, name in enumerate(names):
+        assert busy[name]["at_limit_share"] == pytest.approx(at_limit[i], abs=1e-9), name
+    assert min(busy["LKneePitch"]["at_limit_share"], busy["RKneePitch"]["at_limit_share"]) > 0.05
+    talos = rb.torque_headroom(rb.walking_config("talos"))
+    assert max(j["peak_share"] for j in talos) < 0.8
