@@ -187,9 +187,8 @@ def torque_headroom(config: Config, gains: tuple[tuple[str, float], ...] = ()) -
 
     _with_gains(gains)
     session = Session(config.model_copy(update={"pushes": []}), backend="mujoco")
-    robot = load_robot(config.robot.model)
-    model = robot.pin_model
-    names = [model.names[j] for j in range(2, model.njoints)]  # 0 universe, 1 floating base
+    robot = session.backend.robot
+    names = robot.model.joint_names  # the actuated joints, Pinocchio's order (as τ)
     limit = robot.torque_limit
     share = []
     while session.t < PUSH_DURATION_S and not session.fell:
