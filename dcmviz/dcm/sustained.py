@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 RAMP_TOLERANCE = 0.1  # of the change over the window: a steady ramp's quarters lie this close
@@ -23,11 +25,19 @@ class SustainedLoad:
     leaves a ramp's last T of growth to the angular momentum, which then grows for as long as the
     ramp goes on (Talos under the tug of war ramped to 35 % of m g fell at 16 %, before the ramp
     reached what it holds).
+
+    ``settle_s`` > 0: the passed load follows that value with a first-order lag of this time
+    constant instead of taking it at once.  The value itself jumps where the rules switch (a ramp
+    recognised after T passes its present value, not the window's oldest; a held force that ends
+    drops at once), and the walker shifts its references by the held moment (the lean), so a jump
+    there was a jump of the DCM reference: 7.7 mm in one tick in the paper's tug of war on Talos.
     """
 
-    def __init__(self, time_constant_s: float, dt: float = 0.002) -> None:
+    def __init__(self, time_constant_s: float, dt: float = 0.002, settle_s: float = 0.0) -> None:
         self.time_constant_s = float(time_constant_s)
         self._n = max(1, round(self.time_constant_s / dt)) if self.time_constant_s > 0 else 0
+        # the lag's share of the remaining step taken per tick (exact for a value held over it)
+        self._settle = 1.0 - math.exp(-dt / settle_s) if settle_s > 0 else 1.0
         self._window = np.zeros((6, self._n))  # one row per component: min/max along rows
         self.reset()
 
@@ -78,5 +88,10 @@ class SustainedLoad:
                     and abs(q3 - (a + 0.75 * span)) <= tol
                 ):
                     value[k] = e
+        if self._settle < 1.0:  # first-order lag towards the value, in place
+            a = self._settle
+            self.force += a * (np.array(value[:3]) - self.force)
+            self.moment += a * (np.array(value[3:]) - self.moment)
+            return
         self.force = np.array(value[:3])
         self.moment = np.array(value[3:])

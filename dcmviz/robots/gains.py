@@ -44,6 +44,9 @@ class Gains:
     # s: an external load held this long is taken by the feet (and leaned into); the moment of a
     # shorter push is absorbed as angular momentum (SustainedLoad; 0: every moment at the feet)
     sustained_time_s: float = 1.0
+    # s: the held load settles to a new value with this time constant (a first-order lag) where
+    # its rules switch, so the references shifted by it do not jump (SustainedLoad)
+    sustained_settle_s: float = 0.2
     w_force: float = 1000.0
     w_angular_momentum: float = 0.5
     w_base: float = 3.0

@@ -74,8 +74,10 @@ class Walker:
         self.b = config.dcm.b
         self.observer = DisturbanceObserver(self.mass, config.control.k_f)
         # the part of F̂ that has lasted (a pull, not a push), for a strategy that plans ahead
-        # with it (RecoveryStrategy.uses_held_load): the whole-body QP's notion of held
-        self.held = SustainedLoad(Gains.for_robot(robot).sustained_time_s, self.dt)
+        # with it (RecoveryStrategy.uses_held_load): the whole-body QP's notion of held, with
+        # its window and lag
+        gains = Gains.for_robot(robot)
+        self.held = SustainedLoad(gains.sustained_time_s, self.dt, gains.sustained_settle_s)
         self.walk: Walk | None = None
         self._first_version = plan_version
         self._adjustment: Adjustment = NO_ADJUSTMENT

@@ -173,7 +173,7 @@ class WholeBodyController:
         self.last: Solution | None = None
         self.failures = 0  # QPs that failed (previous torques held)
         self._held_tau = np.zeros(robot.nu)  # torques of the last solved QP, N m
-        self.sustained = SustainedLoad(g.sustained_time_s, control_dt)
+        self.sustained = SustainedLoad(g.sustained_time_s, control_dt, g.sustained_settle_s)
         self._daqp: daqp.Model | None = None  # the solver's workspace, set up at the first tick
         self.reset()
 
