@@ -27,8 +27,11 @@ Per start time (push) and per side (pull) it prints which levels were survived, 
 fall, and the holes: levels that fell although a higher level of the same row was survived
 (survival should be monotone in the force).  With MuJoCo it also walks the gait once unpushed
 and names the joints nearest their torque limits in single support (``torque_headroom``: a
-robot whose knees are at their limit walking has none left for a push).  ``--json`` writes the
-same as data (``torque_headroom``: joint, limit_nm, at_limit_share, peak_share).
+robot whose knees are at their limit walking has none left for a push).  After the pull table
+it prints how hard the legs can lean against a pull on one foot (``lean_bounds``, statics:
+:mod:`dcmviz.robots.lean`), with the trunk upright and rolled.  ``--json`` writes the same as data
+(``torque_headroom``: joint, limit_nm, at_limit_share, peak_share; ``lean``: trunk_roll_rad,
+pull_pct, com_outboard_m, binding).
 """
 
 from __future__ import annotations
@@ -172,6 +175,23 @@ def rollout(job: Job) -> dict[str, Any]:
         "max_dcm_error_m": float(metrics.max_dcm_error_m),
         "wall_s": time.perf_counter() - t0,
     }
+
+
+LEAN_ROLLS = (0.0, 0.15, 0.3)  # rad: the trunk upright, and rolled away from the pull
+
+
+def lean_bounds(robot: str) -> list[dict]:
+    """:func:`dcmviz.robots.lean.lean_reach` on the right foot (a pull towards +y; the robots are
+    symmetric) with the trunk upright and rolled by LEAN_ROLLS: the largest sustained torso pull
+    (% of m g) its legs hold on one foot, and the joints at the end of their range."""
+    from dcmviz.robots.lean import lean_reach
+
+    rows = []
+    for roll in LEAN_ROLLS:
+        lean = lean_reach(load_robot(robot), roll, "right")
+        rows.append({"trunk_roll_rad": lean.trunk_roll_rad, "pull_pct": 100 * lean.pull_fraction,
+                     "com_outboard_m": lean.com_outboard_m, "binding": list(lean.binding)})  # fmt: skip
+    return rows
 
 
 AT_LIMIT = 0.98  # |τ| at least this share of a joint's torque limit counts as at the limit
@@ -369,11 +389,24 @@ def main(argv: list[str] | None = None) -> int:
         out["pull"] = {"levels_pct": args.levels, "rows": s}
         print(f"\npull ramped over {PULL_RAMP_S:g} s and held, % of m g ({mass * GRAVITY:.0f} N)")
         print(table("pull % mg", "%", s, args.levels))
+        out["lean"] = leans = lean_bounds(args.robot)
+        print(
+            "\non one foot, the largest pull the legs lean against (statics, joint ranges, CoP on"
+            " the sole's inner edge; not a bound on walking, which holds more):"
+        )
+        for lean in leans:
+            print(
+                f"  trunk rolled {lean['trunk_roll_rad']:.2f} rad: {lean['pull_pct']:.1f} % of m g"
+                f" (CoM {100 * lean['com_outboard_m']:.1f} cm past the sole's centre), at the end"
+                f" of its range: {', '.join(lean['binding']) or '-'}"
+            )
     if args.sim == "mujoco":
         busy = torque_headroom(base, gains)
         out["torque_headroom"] = busy
-        print("\nunpushed walk, single support: the joints nearest their torque limits "
-              f"(share of ticks at ≥ {AT_LIMIT:.0%} of the limit, peak |τ|/limit):")
+        print(
+            "\nunpushed walk, single support: the joints nearest their torque limits "
+            f"(share of ticks at ≥ {AT_LIMIT:.0%} of the limit, peak |τ|/limit):"
+        )
         print("  " + "; ".join(f"{j['joint']} ({j['limit_nm']:.0f} N m) {j['at_limit_share']:.0%}, "
                               f"peak {j['peak_share']:.2f}" for j in busy[:4]))  # fmt: skip
     print(f"\n{len(jobs)} rollouts in {wall:.0f} s wall")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 
 from dcmviz.robots.file import BUILTIN_ROBOTS, RobotFileError
+from dcmviz.robots.lean import describe
 from dcmviz.robots.report import report
 from dcmviz.robots.robot import load_robot
 
@@ -18,7 +19,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0 if args else 2
     for model in args:
         try:
-            print(report(load_robot(model).model))
+            robot = load_robot(model)
+            print(report(robot.model))
+            print(describe(robot))
         except RobotFileError as err:
             print(err, file=sys.stderr)
             return 2
