@@ -60,6 +60,8 @@ def main() -> None:
         parser.error("--record / --compare take one preset")
     summary = []
     for preset in args.preset:
+        if not Path(preset).exists() and (ROOT / "presets" / f"{preset}.toml").exists():
+            preset = str(ROOT / "presets" / f"{preset}.toml")  # a built-in preset by name
         args1 = argparse.Namespace(**{**vars(args), "preset": preset})
         summary.append(profile(args1) if args.profile else run(args1))
         print()

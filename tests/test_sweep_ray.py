@@ -88,11 +88,7 @@ def test_ray_sweep_equals_serial(local_ray, serial) -> None:
     )
     config = load_preset(WALK).replace(
         pushes=[],
-        control={
-            **load_preset(WALK).control.model_dump(),
-            "step_adjustment": False,
-            "observer": False,
-        },
+        control={"step_adjustment": False, "observer": False},
     )
     start, end = serial["push_start_s"], serial["run_end_s"]
     force = lambda j: (0.0, -j / SETTINGS.push_duration_s, 0.0)  # noqa: E731

@@ -95,7 +95,7 @@ def test_point_mass_climbs_and_descends_ten_steps(rise: float) -> None:
 @pytest.mark.parametrize("recovery", ["next_step", "multi_step"])
 def test_push_on_the_stairs_keeps_adjusted_footsteps_on_their_treads(recovery: str) -> None:
     config = stairs(0.15)
-    config = config.replace(control={**config.control.model_dump(), "recovery": recovery})
+    config = config.replace(control={"recovery": recovery})
     s = Session(config, backend="lip")
     s.push((0.0, -100.0, 0.0), 0.2, start=3.2)  # 20 N·s lateral
     s.run(20.0)

@@ -124,7 +124,7 @@ def test_g1_climbs_a_short_staircase_of_8_cm() -> None:
     0.08 and 0.16 m, horizontal DCM error below 3 cm, no fall."""
     config = load_preset(PRESETS / "stairs_g1.toml")
     config = config.replace(
-        gait={**config.gait.model_dump(), "n_steps": 4},
+        gait={"n_steps": 4},
         terrain={"stairs": {**config.terrain.stairs.model_dump(), "count": 2}},
     )
     session = Session(config)
