@@ -17,10 +17,21 @@ from dcmviz.robots.feet import OTHER, SIDES, Footstep
 from dcmviz.robots.geometry import convex_hull, project_to_polygon, sole_corners
 
 MULTI_STEPS = 3  # footsteps sharing the DCM error
-CAPACITY_MARGIN_M = 0.01  # the recovery QP's CoP stays this far inside the soles
+CAPACITY_MARGIN_M = 0.01  # the recovery QP's CoP stays this far inside the soles ...
+# ... or this share of the sole's half length (half width) if that is less: 1 cm of the G1's 3 cm
+# half width credited its CoP with a third less than the sole gives, and under a 10 % pull its
+# recovery QP moved the footsteps towards the pull where next_step kept them (it fell, next_step
+# walked); the soles of Talos and Romeo (0.13, 0.12 m wide) keep the 1 cm
+CAPACITY_MARGIN_SHARE = 0.2
 CAPACITY_TIME_CONSTANTS = 1.0  # τ/b: the CoP is credited with removing ε within one b
 LATERAL_PRIORITY = 4.0  # a VRP outside the support keeps its lateral part first (shape_vrp)
 PRIORITY_BLEND_M = 0.03  # ... blended in over this far beyond the outer foot
+
+
+def capacity_margin(size_m: float) -> float:
+    """How far (m) the recovery QP's CoP credit stays inside a sole of this length or width:
+    CAPACITY_MARGIN_M, or CAPACITY_MARGIN_SHARE of the half size on a small sole."""
+    return min(CAPACITY_MARGIN_M, CAPACITY_MARGIN_SHARE * 0.5 * size_m)
 
 
 class MultiStep(RecoveryStrategy):
@@ -90,7 +101,7 @@ class MultiStep(RecoveryStrategy):
     def capacity(self, walk: Walk, plan: GaitPlan, t: float, local: float) -> qp.Capacity:
         """What the CoP can still remove of ε = ξ − ξ_adj (:mod:`.qp`): an offset δ from v_ref
         held for CAPACITY_TIME_CONSTANTS · b removes (1 − e^{−τ/b}) δ; v_ref + δ stays
-        CAPACITY_MARGIN_M inside the sole of the stance foot (in its axes).  In double support
+        :func:`capacity_margin` inside the sole of the stance foot (in its axes).  In double support
         the box moves linearly from the old stance foot's sole to the new one's (start: from
         both feet's bounding box; stop: to it), so the capacity, and with it the QP's answer,
         is continuous at every lift-off and touchdown (ξ_adj never jumps)."""
@@ -126,9 +137,9 @@ class MultiStep(RecoveryStrategy):
         return qp.Capacity(np.eye(2), lo, hi)
 
     def sole_box(self, feet: list[Footstep]) -> tuple[np.ndarray, np.ndarray]:
-        """World-axes bounding box (lo, hi) of the soles, CAPACITY_MARGIN_M inside."""
-        length = self.spec.foot_length_m - 2 * CAPACITY_MARGIN_M
-        width = self.spec.foot_width_m - 2 * CAPACITY_MARGIN_M
+        """World-axes bounding box (lo, hi) of the soles, :func:`capacity_margin` inside."""
+        length = self.spec.foot_length_m - 2 * capacity_margin(self.spec.foot_length_m)
+        width = self.spec.foot_width_m - 2 * capacity_margin(self.spec.foot_width_m)
         corners = np.vstack([sole_corners(f.position, f.yaw, length, width) for f in feet])
         return corners.min(axis=0), corners.max(axis=0)
 
