@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -80,6 +81,55 @@ def test_swing_clears_every_edge_by_the_stated_margin() -> None:
         under = terrain.height_at(pts)
         straddles = np.ptp(under) > 0.0  # the sole over an edge: clear it by the margin
         assert p[2] >= under.max() + (EDGE_CLEARANCE_M if straddles else 0.0) - 2e-3
+
+
+def test_a_sole_landing_across_an_edge_is_warned_and_its_swing_stays_low() -> None:
+    """Stairs whose treads do not sit under the footsteps (first riser at 0.125 m, 0.168 m steps
+    and runs, iCub's 0.12 m soles): every sole lands across an edge.  The feasibility check says
+    so for each footstep, naming terrain.stairs.start, and the swing's plateau stays at most the
+    highest ground under its path plus the edge clearance and the apex: it asked for 15 m (the
+    clearance of an edge under the landing sole, where the path's rise R - F → 0, divided by
+    it), and the robot's swing foot flew up at 4 m/s.  The built-in terrain presets: no such
+    warning, and no swing of theirs reaches that ceiling (it changes none of them)."""
+    from pathlib import Path
+
+    from dcmviz.config import load_preset
+    from dcmviz.gait import Planner
+    from dcmviz.gait.feasibility import check_plan
+    from dcmviz.gait.swing import SWING_HEIGHT_M
+    from dcmviz.gait.terrain import terrain_of
+
+    config = loads_preset(
+        STAIRS.replace("step_length = 0.30", "step_length = 0.168").format(rise=0.02)
+        .replace("start = 0.15", "start = 0.125").replace("run = 0.30", "run = 0.168")
+    )  # fmt: skip
+    spec = dataclasses.replace(load_robot("talos").spec, foot_length_m=0.12)
+    plan = Planner.of(config, spec).first()
+    edges = [w for w in check_plan(plan, spec, config) if "across an edge" in str(w)]
+    assert [w.step for w in edges] == list(range(len(edges))) and len(edges) >= 10
+    assert all(w.setting == "terrain.stairs.start" for w in edges)
+    terrain = terrain_of(config.terrain)
+    sole = (spec.foot_length_m, spec.foot_width_m)
+    lift = Footstep("left", np.array([0.0, 0.1, 0.0]))
+    touch = Footstep("left", np.array([0.168, 0.1, 0.02]))
+    swing = SwingTrajectory.between(0.0, 0.7, lift, touch, terrain=terrain, sole=sole)
+    assert swing.top <= 0.02 + EDGE_CLEARANCE_M + SWING_HEIGHT_M + 1e-12
+    assert swing.top >= 0.02 + SWING_HEIGHT_M  # (still above the step's own apex)
+    root = Path(__file__).resolve().parents[1] / "presets"
+    for name in ("stairs", "stairs_up", "stairs_down", "stairs_g1", "stepping_stones"):
+        preset = load_preset(root / f"{name}.toml")
+        preset_spec = load_robot(preset.robot.model).spec
+        preset_plan = Planner.of(preset, preset_spec).first()
+        assert not [w for w in check_plan(preset_plan, preset_spec, preset) if "across" in str(w)]
+        ground = terrain_of(preset.terrain)
+        soles = (preset_spec.foot_length_m, preset_spec.foot_width_m)
+        last = dict(preset_plan.start_feet)
+        for step in preset_plan.steps:  # each foot from where it stood to where it lands
+            lift = last[step.side]
+            top = SwingTrajectory.between(0.0, 0.7, lift, step, terrain=ground, sole=soles).top
+            highest = max(lift.position[2], step.position[2])
+            assert top < highest + EDGE_CLEARANCE_M + SWING_HEIGHT_M - 1e-9, name
+            last[step.side] = step
 
 
 @pytest.mark.parametrize("rise", [0.15, -0.15])

@@ -30,6 +30,7 @@ import numpy as np
 from dcmviz.config import Config
 from dcmviz.gait.height import REACH_FRACTION, leg_span_m, step_heights
 from dcmviz.gait.plan import GaitPlan
+from dcmviz.gait.terrain import terrain_of
 from dcmviz.robots.feet import SIDE_SIGN, Footstep
 from dcmviz.robots.geometry import (
     convex_hull,
@@ -83,7 +84,34 @@ def check_plan(
     stances = [plan.stance_for(k) for k in range(len(plan.steps))]
     warnings += _support_warnings(plan, spec, stances)
     warnings += _step_warnings(plan, spec, config, stances, crossover)
+    warnings += _edge_warnings(plan, spec, config)
     return warnings
+
+
+def _edge_warnings(plan: GaitPlan, spec: RobotSpec, config: Config) -> list[PlanWarning]:
+    """A footstep whose sole lies across a tread's edge (the ground under its corners at two
+    heights): the sole cannot land flat, and its swing cannot clear an edge it lands on."""
+    terrain = terrain_of(config.terrain)
+    if terrain.flat or not plan.steps:
+        return []
+    pos = np.array([s.position for s in plan.steps])
+    yaw = np.array([s.yaw for s in plan.steps])
+    corners = soles_corners(pos, yaw, spec.foot_length_m, spec.foot_width_m)  # (n, 4, 2)
+    heights = terrain.height_at(corners)
+    explicit = _explicit(plan, config)
+    out = []
+    for k in np.nonzero(np.ptp(heights, axis=1) > 1e-6)[0]:
+        k = int(k)
+        low, high = float(heights[k].min()), float(heights[k].max())
+        key = f"gait.footsteps[{k}]" if explicit else (
+            "terrain.stairs.start" if config.terrain.stairs is not None else "gait.step_length"
+        )  # fmt: skip
+        out.append(PlanWarning(
+            f"footstep {k + 1}: its sole lies across an edge (the ground under it at {low:.3f} and "
+            f"{high:.3f} m) and cannot land flat; move {key} so that every sole lies on one "
+            "tread", key, k,
+        ))  # fmt: skip
+    return out
 
 
 def _height_warnings(plan: GaitPlan, spec: RobotSpec) -> list[PlanWarning]:

@@ -99,7 +99,11 @@ def _top_over(
     r, _, _, f, _, _ = _terrain_profile(s)
     # z(s) = z0 (1 − R) + z1 F + z_top (R − F) ≥ need, with R − F > 0 inside (0, 1)
     bound = (need - z0 * (1 - r) - z1 * f) / np.maximum(r - f, 1e-12)
-    return float(max(max(z0, z1) + SWING_HEIGHT_M, bound.max()))
+    # at most the highest ground under the path plus the edge clearance and the apex: a sole
+    # that lands (or lifts off) across an edge needs the clearance where R - F → 0, which no
+    # plateau gives (an iCub stairs walk asked for 15 m); the feasibility check warns of it
+    ceiling = max(z0, z1, float(ground.max())) + EDGE_CLEARANCE_M + SWING_HEIGHT_M
+    return float(min(max(max(z0, z1) + SWING_HEIGHT_M, bound.max()), ceiling))
 
 
 SOLE_CLEARANCE_M = 0.03  # a swing sole passes the stance sole at least this far from it
