@@ -161,3 +161,56 @@ def test_icub_stands_in_mujoco_with_its_base_as_it_stands(tmp_path) -> None:
     np.testing.assert_allclose(
         state.com[:2], 0.5 * (state.feet["left"] + state.feet["right"])[:2], atol=0.03
     )
+
+
+ICUB_STAIRS = """
+[robot]
+model = "{model}"
+[gait]
+mode = "plan"
+n_steps = 12
+step_length = 0.15
+step_width = 0.211
+t_ss = 0.7
+t_ds = 0.2
+[dcm]
+b = 0.212
+[control]
+max_step_adjustment = 0.15
+[sim]
+backend = "mujoco"
+duration = 14.0
+[terrain.stairs]
+start = 0.075
+rise = {rise}
+run = 0.15
+count = 10
+"""
+
+
+@pytest.mark.slow
+def test_icub_climbs_the_stairs_its_derived_step_height_allows(tmp_path) -> None:
+    """iCub from a file: its knees (28 of their 30 N m standing) let its CoM down 1 cm, and on
+    stairs the leg on the lower tread reaches down half the rise further, so its derived step
+    height is 2 × 1 cm, not 0.18 × its leg (0.086 m, which it claimed before).  In MuJoCo it
+    climbs ten 0.01 and 0.02 m stairs; at 0.03 m (where it fell before, unwarned) the
+    feasibility check now says the step is out of its reach."""
+    from dcmviz.config import loads_preset
+    from dcmviz.gait import Planner
+    from dcmviz.gait.feasibility import check_plan
+    from dcmviz.session import Session
+
+    path = _write(tmp_path, ICUB, "icub.toml")
+    spec = load_robot(path).spec
+    assert spec.max_step_height_m == pytest.approx(
+        2 * (spec.com_height_m - spec.min_com_height_m), abs=1e-9
+    )
+    assert spec.max_step_height_m < 0.025
+    for rise in (0.01, 0.02):
+        config = loads_preset(ICUB_STAIRS.format(model=path, rise=rise))
+        session = Session(config)
+        session.run(config.sim.duration, stop_on_fall=True)
+        assert not session.fell and session.steps_completed == 12, rise
+    config = loads_preset(ICUB_STAIRS.format(model=path, rise=0.03))
+    plan = Planner.of(config, spec).first()
+    assert any("gait.step_height" == w.setting for w in check_plan(plan, spec, config))
