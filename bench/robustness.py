@@ -202,7 +202,7 @@ def torque_headroom(config: Config, gains: tuple[tuple[str, float], ...] = ()) -
     of single-support ticks in which the whole-body QP's torque is at the joint's limit
     (≥ AT_LIMIT of it) and its peak |τ|/limit, the busiest joints first.  A joint at its limit
     while the robot walks unpushed leaves nothing for a push or a pull (Romeo's stance knees:
-    30–50 % of single support; Talos and the G1: none)."""
+    15–16 % of single support; Talos and the G1: none)."""
     from dcmviz.session import Session
 
     _with_gains(gains)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from helpers import robustness_bench
 from scipy.optimize import minimize
 
 from dcmviz.robots import load_robot
@@ -140,12 +141,6 @@ def test_walking_under_a_pull_the_g1_meets_the_range_the_bound_names():
     in right single support; under a pull ramped to 10 % of m g towards +y (above the 7.4 % the
     G1 holds standing upright on one foot) it reaches the end of its range on the foot away from
     the pull (within 0.01 rad), as the static bound says it must."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from helpers import robustness_bench
-
     from dcmviz.session import Session
 
     rb = robustness_bench()

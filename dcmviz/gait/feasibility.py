@@ -97,15 +97,14 @@ def _edge_warnings(plan: GaitPlan, spec: RobotSpec, config: Config) -> list[Plan
     pos = np.array([s.position for s in plan.steps])
     yaw = np.array([s.yaw for s in plan.steps])
     corners = soles_corners(pos, yaw, spec.foot_length_m, spec.foot_width_m)  # (n, 4, 2)
-    heights = terrain.height_at(corners)
+    heights = terrain.sole_heights(corners)  # (n, 4): unequal under a sole straddle an edge
     explicit = _explicit(plan, config)
+    generated = "terrain.stairs.start" if config.terrain.stairs is not None else "gait.step_length"
     out = []
     for k in np.nonzero(np.ptp(heights, axis=1) > 1e-6)[0]:
         k = int(k)
         low, high = float(heights[k].min()), float(heights[k].max())
-        key = f"gait.footsteps[{k}]" if explicit else (
-            "terrain.stairs.start" if config.terrain.stairs is not None else "gait.step_length"
-        )  # fmt: skip
+        key = f"gait.footsteps[{k}]" if explicit else generated
         out.append(PlanWarning(
             f"footstep {k + 1}: its sole lies across an edge (the ground under it at {low:.3f} and "
             f"{high:.3f} m) and cannot land flat; move {key} so that every sole lies on one "

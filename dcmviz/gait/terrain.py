@@ -84,7 +84,8 @@ class Terrain:
         return best
 
     def sole_heights(self, corners: np.ndarray) -> np.ndarray:
-        """Ground height under each corner (4, 2) of a sole: unequal heights straddle an edge."""
+        """Ground height under each corner (…, 4, 2) of a sole (or of many): unequal heights
+        straddle an edge."""
         return self.height_at(corners)
 
 

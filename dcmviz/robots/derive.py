@@ -202,7 +202,7 @@ def derive(model, q_nominal, sole_frames, legs, joint_names, limits, rf) -> Deri
         ankle_above_sole_m=ankle_above_sole,
         leg_length_m=max(highest, height) - hip_below_com - ankle_above_sole,
         straight_com_height_m=straight,
-        min_com_height_m=min(lowest, height),
+        min_com_height_m=lowest,
         max_com_height_m=max(highest, height),
         min_height_reason=reason,
         max_step_length_m=step_length,
@@ -212,9 +212,7 @@ def derive(model, q_nominal, sole_frames, legs, joint_names, limits, rf) -> Deri
         # on stairs the leg on the lower tread reaches down half the rise further (gait.height):
         # the rise is also bounded by twice how far the legs can lower the CoM (iCub, knees at
         # 28 of 30 N m standing: 1 cm, so 0.02 m stairs; it fell on 0.03 m ones unwarned)
-        max_step_height_m=min(
-            STEP_HEIGHT_PER_LEG * leg_length, 2.0 * (height - min(lowest, height))
-        ),
+        max_step_height_m=min(STEP_HEIGHT_PER_LEG * leg_length, 2.0 * (height - lowest)),
         max_swing_speed_m_s=2 * step_length / FASTEST_SWING_S,
         max_turn_rad=turn,
         hip_yaw=tuple(yaw),
