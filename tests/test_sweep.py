@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
+import functools
 import json
 from pathlib import Path
 
@@ -18,6 +20,8 @@ from dcmviz.sweep import (
     table,
     write_envelope,
 )
+from dcmviz.sweep.bounds import stance_edge_bound
+from dcmviz.sweep.experiments import stance_edge_bounds
 
 ROOT = Path(__file__).resolve().parents[1]
 WALK = ROOT / "presets" / "walk_forward.toml"
@@ -140,5 +144,19 @@ def test_strategies_side_by_side(tmp_path: Path) -> None:
     assert (
         "  90°: " + ", ".join(f"{n} {share[n]} %" for n in j) + " of the stance-edge bound" in text
     )
+    # the point mass is pushed at its CoM: no bound with the trunk taking the moment
+    assert result["stance_edge_bound_trunk_ns"] == {}
+    assert "taken by the trunk" not in text
+    # a humanoid's envelope prints both (the lever counted and not): Talos's numbers
+    humanoid = dataclasses.replace(settings, backend="mujoco")
+    config = load_preset(WALK)
+    trunk = stance_edge_bounds(
+        config, humanoid, functools.partial(stance_edge_bound, moment_at_feet=False)
+    )
+    torso = stance_edge_bounds(config, humanoid)
+    assert trunk == stance_edge_bounds(config, settings)  # the point mass's, pushed at its CoM
+    assert trunk["90.0"] > 1.3 * torso["90.0"]  # Talos: 41.8 against 29.3 N·s
+    text = table({**result, "stance_edge_bound_ns": torso, "stance_edge_bound_trunk_ns": trunk})
+    assert f"by the feet: 90° {trunk['90.0']:.1f} N·s" in text
     paths = write_envelope(result, tmp_path)
     assert paths[2].stat().st_size > 10_000

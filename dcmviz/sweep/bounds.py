@@ -18,10 +18,13 @@ A humanoid is pushed at a body (the torso by default), ``h`` above its CoM: the 
 a moment h F about the CoM.  The whole-body QP counters it with the feet (its external-moment
 observer), which moves the CMP (the VRP the CoM actually feels) h F/(m g) inwards of the CoP on
 the edge, so ξ̇ = (ξ − e)/b + (F/m)(b + h/(g b)) and b² becomes b² + h/g in the bound: 30 % less
-for Talos's torso, whose CoM is h = 0.379 m above the robot's (0.877 m high).  Letting the trunk
-roll instead (and righting it once the other foot is down) could in principle recover the rest;
-on Talos, whose arms are locked, the QP that does so (force task weighted 100× higher) keeps ξ
-but tips the trunk past the fall criterion.
+for Talos's torso, whose CoM is h = 0.379 m above the robot's (0.877 m high).  If the trunk took
+that moment as centroidal angular momentum instead and gave it back only once ξ is caught (the
+hip strategy), the lever would not count: ``moment_at_feet=False`` gives that bound, the point
+mass's (Talos at mid single support: 41.8 N·s against 29.3 with the feet taking the moment).
+On Talos, whose arms are locked, the QP that lets the trunk roll (force task weighted 100×
+higher) keeps ξ but tips the trunk past the fall criterion, and giving the momentum back while
+the CoP sits on the edge holds the CMP on ξ (measured: issue 22's notes).
 
 A crossed footstep (the ``crossover`` strategy) moves that edge: the swinging foot lands across
 the stance foot inside the robot's crossover region (:mod:`dcmviz.robots.crossover`), as far
@@ -100,11 +103,13 @@ def stance_edge_bound(
     *,
     backend: str = "lip",
     body: str = "torso",
+    moment_at_feet: bool = True,
 ) -> float | None:
     """The bound (N·s) for a push at ``angle_rad`` (0 = +x, counter-clockwise) at ``phase`` of
     step ``step``'s single support (1-based) of the nominal plan, from the plan's ξ_ref there;
     None when the push has no component towards the stance foot.  The point mass (``backend``
-    "lip") is pushed at its CoM; a humanoid at ``body``, whose lever above the CoM counts."""
+    "lip") is pushed at its CoM; a humanoid at ``body``, whose lever above the CoM counts unless
+    ``moment_at_feet`` is False (the trunk takes the push's moment as angular momentum)."""
     plan = plan_from_config(config)
     start, _, _ = push_window(config, step, phase)
     stance = plan.stance_for(step - 1)
@@ -117,7 +122,7 @@ def stance_edge_bound(
     xi0 = plan.preview.dcm(start - plan.t0)[:2]
     edge = float(outward @ stance.position[:2]) + 0.5 * spec.foot_width_m
     distance = edge - float(outward @ xi0)
-    lever = 0.0 if backend == "lip" else robot.push_lever_m(body)
+    lever = 0.0 if backend == "lip" or not moment_at_feet else robot.push_lever_m(body)
     return edge_impulse(distance, spec.mass_kg, config.dcm.b, duration_s, lever) / cos
 
 

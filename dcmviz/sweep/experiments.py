@@ -5,6 +5,7 @@ searches and runs them with :func:`~dcmviz.sweep.scheduler.run_cells` (serially 
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from collections.abc import Callable, Iterator
@@ -227,6 +228,14 @@ def envelope(
         "rows": rows,
         "ratios": ratios(rows),
         "stance_edge_bound_ns": stance_edge_bounds(config, settings),
+        # a humanoid: the same bound with the push's moment taken by the trunk, not the feet
+        "stance_edge_bound_trunk_ns": (
+            stance_edge_bounds(
+                config, settings, functools.partial(stance_edge_bound, moment_at_feet=False)
+            )
+            if settings.backend != "lip"
+            else {}
+        ),
         "crossover_bound_ns": stance_edge_bounds(config, settings, crossover_bound),
     }
 

@@ -105,6 +105,17 @@ def table(result: dict[str, Any]) -> str:
             + ", ".join(f"{float(d):.0f}° {v:.1f}" for d, v in bound)
             + " N·s"
         )
+        trunk = result.get("stance_edge_bound_trunk_ns") or {}
+        if trunk:
+            lines.append(
+                "the same with the push's moment taken by the trunk as angular momentum (given "
+                "back once ξ is caught) instead of by the feet: "
+                + ", ".join(
+                    f"{float(d):.0f}° {v:.1f}"
+                    for d, v in sorted(trunk.items(), key=lambda x: float(x[0]))
+                )  # fmt: skip
+                + " N·s"
+            )
         crossed = result.get("crossover_bound_ns") or {}
         if crossed:
             lines.append(
@@ -151,7 +162,8 @@ def write_envelope(result: dict[str, Any], out: Path) -> list[Path]:
 
 def plot_polar(result: dict[str, Any], path: Path, *, compact: bool = False) -> None:
     """One closed curve per controller: max impulse (N·s) against push direction, and the
-    stance-edge bound the report's table prints (black diamonds, where the result has it).
+    stance-edge bound the report's table prints (black diamonds, where the result has it; grey
+    ones: the same bound with the push's moment taken by the trunk).
 
     ``compact``: a short title in a larger font, for a plot shown a few hundred pixels wide
     (the dashboard's Sweep tab); the long one's details are in the table and the JSON."""
@@ -180,6 +192,13 @@ def plot_polar(result: dict[str, Any], path: Path, *, compact: bool = False) -> 
         ax.plot(
             np.radians([float(d) for d, _ in bound]), [v for _, v in bound], "kD", ms=7,
             mfc="none", mew=1.6, label="stance-edge bound",
+        )  # fmt: skip
+    trunk = sorted((result.get("stance_edge_bound_trunk_ns") or {}).items(),
+                   key=lambda x: float(x[0]))  # fmt: skip
+    if trunk:
+        ax.plot(
+            np.radians([float(d) for d, _ in trunk]), [v for _, v in trunk], "D", color="0.55",
+            ms=7, mfc="none", mew=1.6, label="the same, moment taken by the trunk",
         )  # fmt: skip
     ax.set_theta_zero_location("E")  # 0° = +x forward, counter-clockwise = toward +y (left)
     if compact:
