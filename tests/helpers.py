@@ -73,3 +73,15 @@ def robustness_bench():
     sys.modules[spec.name] = module  # (its dataclasses look their module up)
     spec.loader.exec_module(module)
     return module
+
+
+def locked_arms_g1(tmp_path: Path) -> str:
+    """The built-in G1's robot file without its ``[joints] keep``, written to ``tmp_path``: the
+    G1 as shipped before its arms were actuated (waist and arms locked in its posture)."""
+    from dcmviz.robots.file import builtin_path
+
+    text = builtin_path("g1").read_text(encoding="utf-8")
+    start, end = text.index("[joints]"), text.index("[feet.left]")
+    path = tmp_path / "g1_locked_arms.toml"
+    path.write_text(text[:start] + text[end:], encoding="utf-8")
+    return str(path)

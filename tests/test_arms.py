@@ -9,11 +9,11 @@ tests/test_sweep_bounds.py), because the trunk's return of the stored momentum k
 inside the CoP.  With the arms, the whole-body QP swings them out and they carry part of that
 momentum: it survives up to 30 N·s and falls at 31.
 
-``robots/g1_arms.toml`` is the built-in G1 with its shoulders and elbows actuated.  The locked-arm
-G1 falls under a pull of 15 % of its weight (its ankle roll range runs out on the foot away from
-the pull, docs/robots.md); with the arms, the QP swings them away from the pull (7 kg of arm, the
-CoM 3 cm further from it) and it walks 20 % (measured: 17.5 and 20 % held on both sides, 22.5 %
-falls on both).
+The built-in G1 has its shoulders and elbows actuated.  With them locked (as it was shipped
+before) it falls under a pull of 15 % of its weight (its ankle roll range runs out on the foot
+away from the pull, docs/robots.md); with the arms, the QP swings them away from the pull (7 kg
+of arm, the CoM 3 cm further from it) and it walks 20 % (measured: 17.5 and 20 % held on both
+sides, 22.5 % falls on both).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pinocchio as pin
 import pytest
-from helpers import robustness_bench
+from helpers import locked_arms_g1, robustness_bench
 
 from dcmviz.config import load_preset
 from dcmviz.robots import load_robot
@@ -33,7 +33,6 @@ from dcmviz.sweep.search import push_window
 
 ROOT = Path(__file__).resolve().parents[1]
 ARMS = str(ROOT / "robots" / "talos_arms.toml")
-G1_ARMS = str(ROOT / "robots" / "g1_arms.toml")
 DURATION_S = 0.2
 
 
@@ -113,12 +112,12 @@ def pull(model: str, level_pct: float, side: float, watch=None) -> bool:
 
 
 @pytest.mark.slow
-def test_the_g1_with_its_arms_walks_a_pull_of_20_percent() -> None:
+def test_the_g1_with_its_arms_walks_a_pull_of_20_percent(tmp_path: Path) -> None:
     """+y: 15 and 20 % held, 25 % falls (the boundary is the robot's, not a pinned value); −y:
-    20 % held; the locked-arm G1 falls at 15 %.  Under the held 20 % pull the arms' CoM (their
+    20 % held; the G1 with its arms locked falls at 15 %.  Under the held 20 % pull the arms' CoM (their
     subtrees' masses and CoMs from Pinocchio on the simulated state) stands ≥ 10 cm from the
     pelvis on the side away from the pull at some point (a counterweight; 0 cm standing)."""
-    model = load_robot(G1_ARMS).pin_model
+    model = load_robot("g1").pin_model
     data = model.createData()
     roots = [model.getJointId(n) for n in model.names if n.endswith("shoulder_pitch_joint")]
     away = []
@@ -134,9 +133,9 @@ def test_the_g1_with_its_arms_walks_a_pull_of_20_percent() -> None:
         pelvis = data.oMi[1]
         away.append(-float((pelvis.rotation.T @ (com - pelvis.translation))[1]))
 
-    assert pull(G1_ARMS, 15.0, 1.0)
-    assert pull(G1_ARMS, 20.0, 1.0, watch)
+    assert pull("g1", 15.0, 1.0)
+    assert pull("g1", 20.0, 1.0, watch)
     assert max(away) > 0.10
-    assert not pull(G1_ARMS, 25.0, 1.0)
-    assert pull(G1_ARMS, 20.0, -1.0)
-    assert not pull("g1", 15.0, 1.0)
+    assert not pull("g1", 25.0, 1.0)
+    assert pull("g1", 20.0, -1.0)
+    assert not pull(locked_arms_g1(tmp_path), 15.0, 1.0)

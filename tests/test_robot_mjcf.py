@@ -28,6 +28,11 @@ source = "file"
 mjcf = "g1.xml"
 reference_posture = "stand"      # a <key> of the MJCF
 
+[joints]                          # the built-in g1's arms
+keep = ["left_shoulder_pitch_joint", "left_shoulder_roll_joint", "left_shoulder_yaw_joint",
+        "left_elbow_joint", "right_shoulder_pitch_joint", "right_shoulder_roll_joint",
+        "right_shoulder_yaw_joint", "right_elbow_joint"]
+
 [feet.left]
 link = "left_ankle_roll_link"
 offset = [0.035, 0.0, -0.035]

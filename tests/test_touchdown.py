@@ -21,6 +21,7 @@ from dcmviz.session import Session
 
 ROOT = Path(__file__).resolve().parents[1]
 DT = 0.002
+CLEAR_M = 0.005  # m: a sole this high has left the floor
 
 
 def landings(preset: str, duration: float = 7.0) -> list[tuple[float, float, float]]:
@@ -45,7 +46,9 @@ def landings(preset: str, duration: float = 7.0) -> list[tuple[float, float, flo
         start = i - 1
         while start > 0 and ticks[start - 1][1] == side:
             start -= 1
-        airborne = next(j for j in range(start, i) if not ticks[j][2][side])
+        # airborne: the sole 5 mm up (MuJoCo's contact flickers for a tick or two while a sole
+        # lifting off hovers within 0.2 mm of the floor: the G1 with its arms)
+        airborne = next(j for j in range(start, i) if ticks[j][3][side] > CLEAR_M)
         first = next(
             (j for j in range(airborne, min(i + 50, len(ticks) - 1)) if ticks[j][2][side]), None
         )
