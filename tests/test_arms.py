@@ -4,9 +4,9 @@ push's angular momentum and counterweigh a sustained pull.
 ``robots/talos_arms.toml`` is the built-in Talos with its shoulders and elbows actuated
 (``[joints] keep``), nothing else changed.  Pushed at its torso towards its stance foot at mid
 single support (walk_forward, step timing, observer off), the locked-arm Talos is held to the
-stance-edge bound with the push's moment at the feet (29.3 N·s; it survives 27 and falls from 28,
-tests/test_sweep_bounds.py), because the trunk's return of the stored momentum keeps the CMP
-inside the CoP.  With the arms, the whole-body QP swings them out and they carry part of that
+stance-edge bound with the push's moment at the feet (29.3 N·s; measured: it survives 27 and falls
+from 28; tests/test_sweep_bounds.py checks 85 % and 105 % of it), because the trunk's return of
+the stored momentum keeps the CMP inside the CoP.  With the arms, the whole-body QP swings them out and they carry part of that
 momentum: it survives up to 30 N·s and falls at 31.
 
 The built-in G1 has its shoulders and elbows actuated.  With them locked (as it was shipped
