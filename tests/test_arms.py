@@ -59,6 +59,26 @@ def push(model: str, impulse: float, watch=None) -> bool:
     return not session.fell
 
 
+def test_the_standing_posture_keeps_the_arms_where_the_posture_puts_them() -> None:
+    """The built-in G1's standing posture is solved on its legs (the soles flat, the CoM above
+    their middle): its kept arm joints are exactly the file's ``[posture]`` angles (solved on
+    every joint, the CoM's correction moved them by 2 mrad; on iCub it took a shoulder out of
+    its range), and the CoM stands above the soles' middle (Pinocchio, fresh data)."""
+    robot = load_robot("g1")
+    model, q = robot.pin_model, robot.q_nominal
+    posture = {"left_shoulder_roll_joint": 0.2, "right_shoulder_roll_joint": -0.2,
+               "left_elbow_joint": 0.6, "right_elbow_joint": 0.6}  # fmt: skip
+    arms = [n for n in model.names if "shoulder" in n or "elbow" in n]
+    assert len(arms) == 8
+    for name in arms:
+        assert q[model.joints[model.getJointId(name)].idx_q] == posture.get(name, 0.0), name
+    data = model.createData()
+    com = pin.centerOfMass(model, data, q)
+    pin.framesForwardKinematics(model, data, q)
+    soles = [data.oMf[f].translation for f in robot.sole_frames.values()]
+    assert abs(com[:2] - (soles[0][:2] + soles[1][:2]) / 2).max() < 1e-9
+
+
 def test_the_arms_file_is_talos_with_eight_more_joints() -> None:
     arms, talos = load_robot(ARMS), load_robot("talos")
     assert arms.nu == talos.nu + 8

@@ -38,7 +38,7 @@ def solve_posture(
     if com is not None:
         middle = np.asarray(com, dtype=float)
     rows_com = slice(0, 3 if (com_height is not None or com is not None) else 2)
-    cols = np.r_[0:3, 6 : model.nv]  # base translation and joints
+    cols = np.r_[0:3, _leg_columns(model, sole_frames)]  # base translation and the legs' joints
     norm = math.inf
     for _ in range(iterations):
         pin.framesForwardKinematics(model, data, q)
@@ -58,6 +58,20 @@ def solve_posture(
         dv[cols] = -np.linalg.lstsq(J, e, rcond=None)[0]
         q = pin.integrate(model, q, dv)
     return q, norm
+
+
+def _leg_columns(model, sole_frames: dict[str, int]) -> list[int]:
+    """The v columns of the joints between the base and each sole (the legs): the other
+    actuated joints (arms a robot file keeps) stay as the posture puts them; moving them too
+    spread the CoM's correction over the arms and could take a shoulder out of its range."""
+    cols: set[int] = set()
+    for frame in sole_frames.values():
+        joint = model.frames[frame].parentJoint
+        while joint > 1:  # up to (not including) the floating base
+            j = model.joints[joint]
+            cols.update(range(j.idx_v, j.idx_v + j.nv))
+            joint = model.parents[joint]
+    return sorted(cols)
 
 
 def com_height(model, data, q, sole_frames) -> float:
