@@ -85,3 +85,21 @@ def locked_arms_g1(tmp_path: Path) -> str:
     path = tmp_path / "g1_locked_arms.toml"
     path.write_text(text[:start] + text[end:], encoding="utf-8")
     return str(path)
+
+
+def survives_pull(
+    robot: str, level_pct: float, side: float, recovery: str = "next_step", watch=None
+) -> bool:
+    """True if ``robot`` survives bench/robustness.py's tug of war: a torso pull ramped over 6 s
+    to ``level_pct`` % of its weight towards ``side`` (±1: ±y) and held while it walks 12 steps;
+    ``watch(session, tick)`` runs after every tick (:meth:`Session.subscribe`)."""
+    from dcmviz.robots import load_robot
+    from dcmviz.session import Session
+
+    rb = robustness_bench()
+    base = rb.walking_config(robot, overrides=[f'control.recovery="{recovery}"'])
+    config = rb.pull_config(base, load_robot(robot).spec.mass_kg, level_pct, side)
+    session = Session(config, backend="mujoco")
+    if watch is not None:
+        session.subscribe(lambda tick: watch(session, tick))
+    return not session.run(rb.PULL_DURATION_S, stop_on_fall=True).fell

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pinocchio as pin
 import pytest
-from helpers import locked_arms_g1, robustness_bench
+from helpers import locked_arms_g1, survives_pull
 
 from dcmviz.config import load_preset
 from dcmviz.robots import load_robot
@@ -46,17 +46,14 @@ def config(model: str):
 
 def push(model: str, impulse: float, watch=None) -> bool:
     """True if the robot survives a torso push of ``impulse`` N·s towards its left stance foot at
-    mid single support of step 4; ``watch(session)`` is called every tick of the push's first
-    0.6 s."""
+    mid single support of step 4; ``watch(session, tick)`` runs after every tick."""
     cfg = config(model)
     start = push_window(cfg, 4, 0.5)[0]
     session = Session(cfg, backend="mujoco")
     session.push((0.0, impulse / DURATION_S, 0.0), DURATION_S, body="torso", start=start)
-    while session.t < start + 1.8 and not session.fell:
-        session.step()
-        if watch is not None and start <= session.t < start + 0.6:
-            watch(session)
-    return not session.fell
+    if watch is not None:
+        session.subscribe(lambda tick: watch(session, tick))
+    return not session.run(start + 1.8).fell
 
 
 def test_the_standing_posture_keeps_the_arms_where_the_posture_puts_them() -> None:
@@ -104,7 +101,11 @@ def test_arms_catch_a_push_beyond_the_bound_with_the_moment_at_the_feet(impulse:
     columns = [model.joints[model.getJointId(n)].idx_v for n in model.names if n.startswith("arm_")]
     carried = []
 
-    def watch(session: Session) -> None:
+    start = push_window(config(ARMS), 4, 0.5)[0]
+
+    def watch(session: Session, tick) -> None:
+        if not start <= tick.t < start + 0.6:
+            return
         backend = session.backend
         scene, d = backend.robot.mujoco, backend.data  # MuJoCo's state in Pinocchio's order
         q, v = scene.q_pin(d.qpos), scene.v_pin(d.qpos, d.qvel)
@@ -114,21 +115,6 @@ def test_arms_catch_a_push_beyond_the_bound_with_the_moment_at_the_feet(impulse:
     assert push(ARMS, impulse, watch)
     assert min(carried) < -1.5
     assert not push("talos", impulse)
-
-
-def pull(model: str, level_pct: float, side: float, watch=None) -> bool:
-    """True if the robot survives bench/robustness.py's tug of war (a torso pull ramped over 6 s
-    to ``level_pct`` % of its weight and held while it walks 12 steps); ``watch(session)`` is
-    called every 0.1 s."""
-    rb = robustness_bench()
-    base = rb.walking_config(model)
-    config = rb.pull_config(base, load_robot(model).spec.mass_kg, level_pct, side)
-    session = Session(config, backend="mujoco")
-    while session.t < rb.PULL_DURATION_S and not session.fell:
-        session.step()
-        if watch is not None and round(session.t / 0.002) % 50 == 0:
-            watch(session)
-    return not session.fell
 
 
 @pytest.mark.slow
@@ -142,8 +128,8 @@ def test_the_g1_with_its_arms_walks_a_pull_of_20_percent(tmp_path: Path) -> None
     roots = [model.getJointId(n) for n in model.names if n.endswith("shoulder_pitch_joint")]
     away = []
 
-    def watch(session: Session) -> None:
-        if session.t < 7.0:  # the pull is held from 7 s on
+    def watch(session: Session, tick) -> None:
+        if tick.t < 7.0 or tick.index % 50:  # the pull is held from 7 s on; every 0.1 s
             return
         backend = session.backend
         q = backend.robot.mujoco.q_pin(backend.data.qpos)
@@ -153,9 +139,9 @@ def test_the_g1_with_its_arms_walks_a_pull_of_20_percent(tmp_path: Path) -> None
         pelvis = data.oMi[1]
         away.append(-float((pelvis.rotation.T @ (com - pelvis.translation))[1]))
 
-    assert pull("g1", 15.0, 1.0)
-    assert pull("g1", 20.0, 1.0, watch)
+    assert survives_pull("g1", 15.0, 1.0)
+    assert survives_pull("g1", 20.0, 1.0, watch=watch)
     assert max(away) > 0.10
-    assert not pull("g1", 25.0, 1.0)
-    assert pull("g1", 20.0, -1.0)
-    assert not pull(locked_arms_g1(tmp_path), 15.0, 1.0)
+    assert not survives_pull("g1", 25.0, 1.0)
+    assert survives_pull("g1", 20.0, -1.0)
+    assert not survives_pull(locked_arms_g1(tmp_path), 15.0, 1.0)

@@ -14,17 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import robustness_bench
+from helpers import robustness_bench, survives_pull
 
-from dcmviz.robots import load_robot
 from dcmviz.session import Session
-
-
-def survives_pull(robot: str, level_pct: float, side: float, recovery: str = "next_step") -> bool:
-    rb = robustness_bench()
-    base = rb.walking_config(robot, overrides=[f'control.recovery="{recovery}"'])
-    config = rb.pull_config(base, load_robot(robot).spec.mass_kg, level_pct, side)
-    return not Session(config, backend="mujoco").run(rb.PULL_DURATION_S, stop_on_fall=True).fell
 
 
 @pytest.mark.slow

@@ -61,6 +61,16 @@ def envelope_metric(
     raise ValueError(f"metric {metric!r}: allowed {', '.join(METRICS)}")
 
 
+def _by_direction(result: dict[str, Any], key: str) -> list[tuple[str, float]]:
+    """A bound of ``result`` (direction in degrees, keyed to 0.1 as
+    experiments.stance_edge_bounds keys it → N·s) as (key, value) pairs by direction."""
+    return sorted((result.get(key) or {}).items(), key=lambda x: float(x[0]))
+
+
+def _listed(bound: list[tuple[str, float]]) -> str:
+    return ", ".join(f"{float(d):.0f}° {v:.1f}" for d, v in bound) + " N·s"
+
+
 def table(result: dict[str, Any]) -> str:
     """The envelope as a text table (impulses in N·s) with ratios to tracking."""
     names = result["settings"]["controllers"]
@@ -95,37 +105,22 @@ def table(result: dict[str, Any]) -> str:
         lines.append("* survival is not monotone here: a larger grid impulse survived (see JSON)")
     if any(r["capped"] for r in rows):
         lines.append("≥ survived the whole bracket; raise --max-impulse")
-    # keyed as experiments.stance_edge_bounds keys it: degrees to 0.1
-    bound = sorted((result.get("stance_edge_bound_ns") or {}).items(), key=lambda x: float(x[0]))
+    bound = _by_direction(result, "stance_edge_bound_ns")
     if bound:
         lines.append(
             "towards the stance foot no strategy without crossing steps exceeds (CoP on the "
             "stance sole's edge from the push's start, a humanoid's feet also taking the push's "
-            "moment about the CoM; dcmviz.sweep.bounds): "
-            + ", ".join(f"{float(d):.0f}° {v:.1f}" for d, v in bound)
-            + " N·s"
+            "moment about the CoM; dcmviz.sweep.bounds): " + _listed(bound)
         )
-        trunk = result.get("stance_edge_bound_trunk_ns") or {}
-        if trunk:
+        if trunk := _by_direction(result, "stance_edge_bound_trunk_ns"):
             lines.append(
                 "the same with the push's moment taken by the trunk as angular momentum (given "
-                "back once ξ is caught) instead of by the feet: "
-                + ", ".join(
-                    f"{float(d):.0f}° {v:.1f}"
-                    for d, v in sorted(trunk.items(), key=lambda x: float(x[0]))
-                )  # fmt: skip
-                + " N·s"
+                "back once ξ is caught) instead of by the feet: " + _listed(trunk)
             )
-        crossed = result.get("crossover_bound_ns") or {}
-        if crossed:
+        if crossed := _by_direction(result, "crossover_bound_ns"):
             lines.append(
                 "with a footstep across the stance foot (inside the robot's crossover region, "
-                "landing as early as it may; dcmviz.sweep.bounds) at most: "
-                + ", ".join(
-                    f"{float(d):.0f}° {v:.1f}"
-                    for d, v in sorted(crossed.items(), key=lambda x: float(x[0]))
-                )  # fmt: skip
-                + " N·s"
+                "landing as early as it may; dcmviz.sweep.bounds) at most: " + _listed(crossed)
             )
         reached_at = {f"{d:.1f}": cells for d, cells in by_dir.items()}
         for d, v in bound:
@@ -187,19 +182,15 @@ def plot_polar(result: dict[str, Any], path: Path, *, compact: bool = False) -> 
         radius = np.array([r["max_impulse_ns"] for r in rows])
         theta, radius = np.append(theta, theta[:1]), np.append(radius, radius[:1])
         ax.plot(theta, radius, styles.get(name, "-"), label=name, lw=1.8, ms=5)
-    bound = sorted((result.get("stance_edge_bound_ns") or {}).items(), key=lambda x: float(x[0]))
-    if bound:
-        ax.plot(
-            np.radians([float(d) for d, _ in bound]), [v for _, v in bound], "kD", ms=7,
-            mfc="none", mew=1.6, label="stance-edge bound",
-        )  # fmt: skip
-    trunk = sorted((result.get("stance_edge_bound_trunk_ns") or {}).items(),
-                   key=lambda x: float(x[0]))  # fmt: skip
-    if trunk:
-        ax.plot(
-            np.radians([float(d) for d, _ in trunk]), [v for _, v in trunk], "D", color="0.55",
-            ms=7, mfc="none", mew=1.6, label="the same, moment taken by the trunk",
-        )  # fmt: skip
+    for key, style, color, label in (
+        ("stance_edge_bound_ns", "D", "k", "stance-edge bound"),
+        ("stance_edge_bound_trunk_ns", "D", "0.55", "the same, moment taken by the trunk"),
+    ):
+        if points := _by_direction(result, key):
+            ax.plot(
+                np.radians([float(d) for d, _ in points]), [v for _, v in points], style,
+                color=color, ms=7, mfc="none", mew=1.6, label=label,
+            )  # fmt: skip
     ax.set_theta_zero_location("E")  # 0° = +x forward, counter-clockwise = toward +y (left)
     if compact:
         ax.set_title(
