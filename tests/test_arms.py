@@ -76,6 +76,27 @@ def test_the_standing_posture_keeps_the_arms_where_the_posture_puts_them() -> No
     assert abs(com[:2] - (soles[0][:2] + soles[1][:2]) / 2).max() < 1e-9
 
 
+def test_a_kept_arm_joint_outside_its_range_is_named_in_the_refusal(tmp_path: Path) -> None:
+    """A file whose ``[posture]`` puts a kept arm joint at its range is refused with that joint
+    named and the rule stated for every actuated joint (the message said "every leg joint"
+    about an elbow)."""
+    from dcmviz.robots.file import RobotFileError
+
+    text = (ROOT / "dcmviz" / "robots" / "data" / "g1.toml").read_text()
+    bent = tmp_path / "g1_bent_elbow.toml"
+    bent.write_text(text.replace("left_elbow_joint = 0.6", "left_elbow_joint = 2.05"))
+    model = load_robot("g1").pin_model  # 2.05 rad is within the 0.05 rad margin of its top
+    assert (
+        2.05
+        > model.upperPositionLimit[model.joints[model.getJointId("left_elbow_joint")].idx_q] - 0.05
+    )
+    with pytest.raises(RobotFileError) as err:
+        load_robot(str(bent))
+    message = str(err.value)
+    assert "left_elbow_joint at 2.05 rad" in message
+    assert "every actuated joint" in message and "leg joint" not in message
+
+
 def test_the_arms_file_is_talos_with_eight_more_joints() -> None:
     arms, talos = load_robot(ARMS), load_robot("talos")
     assert arms.nu == talos.nu + 8

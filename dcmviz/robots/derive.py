@@ -140,8 +140,9 @@ def derive(model, q_nominal, sole_frames, legs, joint_names, limits, rf) -> Deri
         raise _err(
             rf,
             f"the standing posture (CoM {height:.3f} m above the soles) is not walkable: "
-            f"{problem}; expected a posture (posture, standing.com_height_m) with every leg "
-            f"joint {JOINT_MARGIN_RAD} rad inside its range and the weight held on one leg",
+            f"{problem}; expected a posture (posture, standing.com_height_m) with every "
+            f"actuated joint (the legs' and any the file keeps, [joints] keep) "
+            f"{JOINT_MARGIN_RAD} rad inside its range and the weight held on one leg",
         )
     h = height
     while h - 0.01 >= floor - 1e-9:
