@@ -50,6 +50,7 @@ from dcmviz.config import load_preset  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
 from dcmviz.dashboard.headless import launch_chromium  # noqa: E402
 from dcmviz.dashboard.loop import CONFIG_MIN_INTERVAL_S  # noqa: E402
+from dcmviz.dashboard.push import PUSH_N_PER_KG, default_magnitude  # noqa: E402
 
 
 def free_port() -> int:
@@ -532,8 +533,9 @@ def pictures(folder: Path, preset: Path) -> None:
         # scrubbed back through a push: pause 0.6 s after it, then 0.35 s back
         wait_sim(3.3)
         loop.post("pause_after_push", 0.6)
-        dashboard.push_panel.gui_push_magnitude.value = 150.0
-        loop.post("push", {"force": (0.0, 150.0, 0.0), "duration": 0.2, "ramp": 0.0,
+        click = default_magnitude(loop.session.mass)  # 150 N on Talos, by mass
+        dashboard.push_panel.gui_push_magnitude.value = click
+        loop.post("push", {"force": (0.0, click, 0.0), "duration": 0.2, "ramp": 0.0,
                            "body": "torso"})  # fmt: skip
         deadline = time.time() + 30
         while loop.playing and time.time() < deadline:
@@ -663,7 +665,9 @@ def take_screenshot(page, dashboard: Dashboard, path: Path) -> None:
     loop = dashboard.loop
     resets = loop.resets
     loop.post("reset")
-    push = {"force": (0.0, 60.0, 0.0), "duration": 3.0, "ramp": 0.5, "body": "torso", "start": 1.6}
+    # 60 N on the 90 kg Talos, by mass (the 33 kg G1 fell under 60 N held for 3 s)
+    held = round(0.4 * PUSH_N_PER_KG * loop.session.mass)  # 0.4 of a click's default
+    push = {"force": (0.0, held, 0.0), "duration": 3.0, "ramp": 0.5, "body": "torso", "start": 1.6}
     loop.post("push", push)
     deadline = time.time() + 60
     while loop.resets == resets and time.time() < deadline:
