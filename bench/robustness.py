@@ -2,7 +2,7 @@
 
     python bench/robustness.py --robot NAME|PATH [--jobs N] [--json PATH] [--sim mujoco|lip]
         [--scales 0.5,1,1.5,2,2.5,3] [--starts 4] [--levels 5,10,15,20,25,30,35]
-        [--pull-sides +,-] [--recovery next_step] [--no-observer] [--only push|pull]
+        [--pull-sides +,-] [--recovery next_step] [--no-observer] [--only push|pull] [--ceiling]
 
 Both scenarios are scaled by the robot's mass m and walk a gait derived from the robot's own
 numbers (``walking_config``), never tuned per robot:
@@ -21,7 +21,14 @@ MuJoCo, the default, is what a user sees).  ``--lever`` (with ``--sim lip``) sca
 pushed at the torso, a humanoid whose feet counter the push's moment (no change of angular
 momentum) has its CoM accelerated as the point mass by F (z + h)/z (the moment about the CoM,
 h F, moves the CoP by h F/(m g) for the same ground force), so this is the ceiling of the paper's
-controller for the torso push without angular momentum (``lever_factor``).
+controller for the torso push without angular momentum (``lever_factor``).  ``--ceiling`` (with
+MuJoCo) runs the pushes three ways in one go, the humanoid, the lever-loaded point mass and the
+point mass pushed at its CoM, prints the starts each survives per scale side by side and says,
+per scale where the humanoid falls, what the shortfall comes to (``ceiling_verdicts``): the
+robot's own numbers (the point mass at its CoM falls too), the torso push's moment (only the
+lever-loaded point mass falls: angular momentum to take), or the whole-body layer (JSON
+``ceiling``: scales, starts, lever_factor, and the survived starts per scale of humanoid, lever,
+com).  It answers "it falls on my robot" with where to look.
 
 Per start time (push) and per side (pull) it prints which levels were survived, the first
 fall, and the holes: levels that fell although a higher level of the same row was survived
@@ -281,6 +288,55 @@ def table(title: str, unit: str, summary: dict[str, Any], levels: list[float]) -
     return "\n".join(lines)
 
 
+CEILING_ROWS = (
+    ("humanoid", "the humanoid (MuJoCo)"),
+    ("lever", "point mass, torso lever"),
+    ("com", "point mass, at the CoM"),
+)
+
+
+def survived_counts(results: list[dict[str, Any]], scales: list[float]) -> list[int]:
+    """Per scale, how many push rollouts (one per start time) were survived."""
+    return [sum(1 for r in results if r["level"] == sc and not r["fell"]) for sc in scales]
+
+
+def ceiling_verdicts(scales: list[float], starts: int, counts: dict[str, list[int]]) -> list[str]:
+    """Per scale where the humanoid falls at some start, which of three things it comes to
+    (``counts``: survived starts per scale for "humanoid", "lever" and "com"):
+
+    - the paper's controller on the point mass with this robot's numbers falls too, pushed at
+      its CoM: the robot's feet, CoM height and reach (no whole-body layer does better);
+    - the point mass falls only with the torso push's moment loaded on its CoP (``--lever``):
+      what the humanoid would gain by taking that moment as angular momentum (issue 22, item 4);
+    - the lever-loaded point mass survives more starts than the humanoid: the whole-body layer.
+    """
+    lines = []
+    for i, sc in enumerate(scales):
+        h, lever, com = (counts[k][i] for k in ("humanoid", "lever", "com"))
+        if h == starts:
+            continue
+        if com < starts:
+            cause = (f"the point mass at its CoM falls too ({com}/{starts}): the robot's feet, CoM "
+                     "height and reach under the paper's controller")  # fmt: skip
+            ref = com
+        elif lever < starts:
+            cause = (f"the point mass holds it at its CoM ({com}/{starts}), not with the torso's "
+                     f"moment at its feet ({lever}/{starts}): angular momentum to take")  # fmt: skip
+            ref = lever
+        else:
+            cause = (f"the point mass holds it even with the torso's moment at its feet "
+                     f"({lever}/{starts}): the whole-body layer")  # fmt: skip
+            ref = lever
+        n = abs(h - ref)
+        starts_word = f"{n} start{'s' if n > 1 else ''}"
+        if h < ref:
+            cause += f"; the humanoid survives {starts_word} fewer"
+        elif h > ref:
+            cause += f"; the humanoid survives {starts_word} more (its trunk or arms take some)"
+        lines.append(f"  {sc:g}x: the humanoid {h}/{starts}; {cause}")
+    return lines
+
+
 def floats(text: str) -> list[float]:
     return [float(x) for x in text.split(",") if x.strip()]
 
@@ -302,6 +358,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="the humanoid (mujoco) or the point mass with its numbers (lip)")  # fmt: skip
     p.add_argument("--lever", action="store_true",
                    help="with --sim lip: forces × (z + h)/z, the torso push's load on the CoP")  # fmt: skip
+    p.add_argument("--ceiling", action="store_true",
+                   help="with MuJoCo: the pushes also on the point mass with the robot's numbers, at "
+                        "its CoM and with the torso lever, side by side with the humanoid")  # fmt: skip
     p.add_argument("--no-observer", action="store_true", help="control.observer = false")
     p.add_argument("--only", choices=("push", "pull"))
     p.add_argument("--set", action="append", default=[], dest="overrides",
@@ -316,6 +375,8 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.lever and args.sim != "lip":
         p.error("--lever: only with --sim lip (the humanoid has its torso)")
+    if args.ceiling and (args.sim != "mujoco" or args.only == "pull"):
+        p.error("--ceiling: the humanoid's pushes against the point mass (--sim mujoco, pushes)")
     gains = tuple((k.strip(), float(v)) for k, v in (g.split("=", 1) for g in args.gain))
 
     overrides = list(args.overrides)
@@ -336,6 +397,14 @@ def main(argv: list[str] | None = None) -> int:
                 cfg = push_config(base, mass, sc, PUSH_FIRST_S + off, factor)
                 jobs.append(Job("push", f"start {PUSH_FIRST_S + off:.2f}s", sc, cfg,
                                 PUSH_DURATION_S, gains))  # fmt: skip
+        if args.ceiling:  # the same pushes on the point mass with the robot's numbers
+            lip = walking_config(args.robot, args.preset, overrides, "lip")
+            for kind, f in (("lever", lever_factor(args.robot)), ("com", 1.0)):
+                for off in offsets:
+                    for sc in args.scales:
+                        cfg = push_config(lip, mass, sc, PUSH_FIRST_S + off, f)
+                        jobs.append(Job(kind, f"start {PUSH_FIRST_S + off:.2f}s", sc, cfg,
+                                        PUSH_DURATION_S))  # fmt: skip
     if args.only in (None, "pull"):
         for side in sides:
             sign = -1.0 if side.startswith("-") else 1.0
@@ -383,6 +452,21 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\npush ±25 N × 1 s × m/76 kg × scale (F{PAPER_FORCE_N * mass / PAPER_MASS_KG:.1f}"
               f" N per unit scale); F<t>: fell at t s")  # fmt: skip
         print(table("push scale", unit_push, s, args.scales))
+        if args.ceiling:
+            counts = {k: survived_counts([r for r in results if r["kind"] == k], args.scales)
+                      for k in ("lever", "com")}  # fmt: skip
+            counts["humanoid"] = survived_counts(pr, args.scales)
+            out["ceiling"] = {"scales": args.scales, "starts": args.starts,
+                              "lever_factor": lever_factor(args.robot), **counts}  # fmt: skip
+            print(f"\nthe paper's controller on the point mass with this robot's numbers, the same "
+                  f"pushes (survived starts of {args.starts}; torso lever (z + h)/z = "
+                  f"{lever_factor(args.robot):.2f}):")  # fmt: skip
+            head = f"{'':<26}" + "".join(f"{sc:>6g}x" for sc in args.scales)
+            print(head)
+            for key, label in CEILING_ROWS:
+                print(f"{label:<26}" + "".join(f"{n:>7}" for n in counts[key]))
+            print("\n".join(ceiling_verdicts(args.scales, args.starts, counts)) or
+                  "  the humanoid survives every start at every scale")  # fmt: skip
     if args.only in (None, "pull"):
         pr = [r for r in results if r["kind"] == "pull"]
         s = summarise(pr, args.levels)

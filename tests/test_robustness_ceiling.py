@@ -91,3 +91,57 @@ def test_the_lever_loaded_point_mass_with_talos_numbers_survives_up_to_1_5x(scal
 def test_the_lever_loaded_point_mass_with_talos_numbers_falls_from_2x(scale: float) -> None:
     """Measured: 1.75× falls at two starts, 2× at three, 2.5× at all four (no holes)."""
     assert sum(survived_starts("talos", scale, lever=True)) <= 1
+
+
+def test_the_ceiling_report_names_what_each_shortfall_comes_to() -> None:
+    """``bench/robustness.py --ceiling``'s verdict per scale (the G1's and Talos's counts as
+    measured, survived starts of 4): the robot's numbers where the point mass at its CoM falls,
+    the torso's moment where only the lever-loaded point mass falls, the whole-body layer where
+    even that survives more, and how many starts the humanoid is above or below that ceiling."""
+    rb = robustness_bench()
+    g1 = {"humanoid": [4, 1, 0], "lever": [4, 0, 0], "com": [4, 4, 1]}
+    lines = rb.ceiling_verdicts([1.0, 1.5, 2.0], 4, g1)
+    assert len(lines) == 2  # 1x: survived everywhere, no line
+    assert lines[0].startswith("  1.5x: the humanoid 1/4;") and "angular momentum" in lines[0]
+    assert "1 start more" in lines[0]
+    assert "CoM falls too (1/4)" in lines[1] and "1 start fewer" in lines[1]
+    layer = rb.ceiling_verdicts([1.5], 4, {"humanoid": [2], "lever": [4], "com": [4]})
+    assert "the whole-body layer" in layer[0] and "2 starts fewer" in layer[0]
+
+
+def test_survived_counts_count_the_starts_per_scale() -> None:
+    rb = robustness_bench()
+    results = [{"level": sc, "fell": fell} for sc, fell in
+               [(1.0, False), (1.0, False), (1.5, True), (1.5, False), (2.0, True)]]  # fmt: skip
+    assert rb.survived_counts(results, [1.0, 1.5, 2.0, 2.5]) == [2, 1, 0, 0]
+
+
+def test_the_ceiling_needs_the_humanoid_and_its_pushes() -> None:
+    rb = robustness_bench()
+    for argv in (["--robot", "g1", "--ceiling", "--sim", "lip"],
+                 ["--robot", "g1", "--ceiling", "--only", "pull"]):  # fmt: skip
+        with pytest.raises(SystemExit):
+            rb.main(argv)
+
+
+@pytest.mark.slow
+def test_the_ceiling_run_reports_each_rows_rollouts(tmp_path, capsys) -> None:
+    """One start at 0.5x: the humanoid, the lever-loaded point mass and the point mass at its
+    CoM each walk it once (the JSON's counts are those rollouts' outcomes) and the table says
+    the humanoid survives every start."""
+    import json
+
+    rb = robustness_bench()
+    out = tmp_path / "ceiling.json"
+    argv = ["--robot", "talos", "--ceiling", "--only", "push", "--scales", "0.5", "--starts", "1"]
+    assert rb.main([*argv, "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    kinds = {r["kind"]: r for r in data["rollouts"]}
+    assert set(kinds) == {"push", "lever", "com"}
+    assert kinds["lever"]["force_n"] == pytest.approx(
+        kinds["com"]["force_n"] * rb.lever_factor("talos"), rel=1e-12
+    )
+    for key, kind in (("humanoid", "push"), ("lever", "lever"), ("com", "com")):
+        assert data["ceiling"][key] == [0 if kinds[kind]["fell"] else 1]
+    assert data["ceiling"]["humanoid"] == [1]
+    assert "the humanoid survives every start at every scale" in capsys.readouterr().out
