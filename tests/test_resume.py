@@ -57,6 +57,44 @@ def test_a_state_restores_only_into_its_own_backend() -> None:
 
 
 @pytest.mark.parametrize("backend", ["lip", "mujoco"])
+def test_a_pickled_state_continues_bit_for_bit_in_a_new_session(backend: str) -> None:
+    """A state saved during a push, pickled and unpickled (as the sweep ships a trial's prefix
+    to a worker), continues in a session built for it (:meth:`Session.from_state`) exactly as the
+    original session does: MuJoCo's physical state and the commanded VRP equal every tick for
+    1.5 s, and so do the metrics (largest DCM error, fall)."""
+    import pickle
+
+    session = walk(backend, 2.0)
+    session.push((0.0, 70.0, 0.0), 0.4)
+    session.step()
+    state = pickle.loads(pickle.dumps(session.save_state()))
+    resumed = Session.from_state(state)
+    assert resumed.backend is not session.backend and resumed.robot is session.robot
+    for _ in range(750):
+        session.step()
+        resumed.step()
+        np.testing.assert_array_equal(resumed.tick().physics, session.tick().physics)
+        np.testing.assert_array_equal(resumed.tick().command.v_cmd, session.tick().command.v_cmd)
+    assert resumed.metrics.max_dcm_error_m == session.metrics.max_dcm_error_m > 0.0
+    assert resumed.metrics.fell == session.metrics.fell
+
+
+def test_a_robot_pickles_as_its_name() -> None:
+    """Unpickled, a robot is this process's own (load_robot's, built once); a robot file's is
+    named by its absolute path, so a worker elsewhere in the tree finds it."""
+    import pickle
+    from pathlib import Path
+
+    from dcmviz.robots import load_robot
+
+    talos = load_robot("talos")
+    assert pickle.loads(pickle.dumps(talos)) is talos
+    path = str(Path(__file__).resolve().parents[1] / "robots" / "talos_arms.toml")
+    arms = pickle.loads(pickle.dumps(load_robot(path)))
+    assert arms.name == path and arms.nu == talos.nu + 8
+
+
+@pytest.mark.parametrize("backend", ["lip", "mujoco"])
 def test_a_spring_pull_is_k_times_the_stretch_and_moves_the_body(backend: str) -> None:
     """The first tick of a pull pushes the body with k (target − grab point), the grab point
     where the body was grabbed (no velocity yet); the tick reports it as an external force on

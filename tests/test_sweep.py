@@ -160,3 +160,30 @@ def test_strategies_side_by_side(tmp_path: Path) -> None:
     assert f"by the feet: 90° {trunk['90.0']:.1f} N·s" in text
     paths = write_envelope(result, tmp_path)
     assert paths[2].stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("backend", ["lip", "mujoco"])
+def test_a_rollout_from_the_prefix_snapshot_equals_one_that_walks_there(backend: str) -> None:
+    """The humanoid's rollouts continue from the trial's pickled state at the push start
+    (prefix_snapshot; the whole session, pickled before, was refused for MuJoCo, so every
+    humanoid rollout walked its 4 s prefix again): the same survival, fall time and largest DCM
+    error as a rollout that walks the prefix itself, for a push it survives and one it does
+    not."""
+    from dcmviz.sweep.search import Trial, prefix_snapshot, rollout
+    from dcmviz.sweep.search import push_window as window
+
+    config = load_preset(Path(__file__).resolve().parents[1] / "presets" / "walk_forward.toml")
+    config = config.replace(pushes=[], control={"step_adjustment": True})
+    start, _, end = window(config, 4, 0.5)
+    trial = Trial(config, backend, start, 0.2, end + 1.0)
+    snapshot = prefix_snapshot(trial)
+    assert snapshot is not None  # (None for MuJoCo before: no prefix was shared)
+    outcomes = []
+    for impulse in (10.0, 60.0):
+        force = (0.0, impulse / 0.2, 0.0)
+        a, b = rollout(trial, snapshot, force), rollout(trial, None, force)
+        assert (a.survived, a.fall_time_s, a.max_dcm_error_m) == (
+            b.survived, b.fall_time_s, b.max_dcm_error_m
+        )  # fmt: skip
+        outcomes.append(a.survived)
+    assert outcomes == [True, False]

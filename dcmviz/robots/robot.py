@@ -101,6 +101,15 @@ class Robot:
     def __repr__(self) -> str:
         return f"Robot({self.name!r}, {self.mass:.2f} kg)"
 
+    def __reduce__(self) -> tuple:
+        """Pickled as its ``robot.model`` (a robot file's as an absolute path): unpickled, it is
+        that process's own robot (:func:`load_robot`, built once per process and file version).
+        A walker or a session state pickles with it, e.g. to continue a walk in a Ray worker."""
+        from dcmviz.robots.file import BUILTIN_ROBOTS
+
+        model = self.name if self.name in BUILTIN_ROBOTS else resolve_robot_path(self.name)
+        return (load_robot, (model,))
+
     @property
     def mujoco(self) -> MujocoModel:
         """The MuJoCo model (robot, floor, sole boxes, motors), built on first use."""

@@ -75,6 +75,7 @@ class SessionState:
     applied: dict[str, np.ndarray]
     metrics: Metrics
     ticks: int
+    backend_name: str = "mujoco"  # "lip" | "mujoco": what :meth:`Session.from_state` builds
 
 
 @dataclass
@@ -442,7 +443,20 @@ class Session:
             pending=tuple(self._pending),
             applied={b: f.copy() for b, f in self._applied.items()},
             metrics=copy.copy(self.metrics), ticks=self._ticks,
+            backend_name=self.backend_name,
         )  # fmt: skip
+
+    @classmethod
+    def from_state(cls, state: SessionState) -> Session:
+        """A new session that continues from ``state`` exactly as the one that saved it would:
+        built from the state's preset (its robot, terrain and backend kind), then given the
+        state.  A state pickles (the robot as its name, :meth:`Robot.__reduce__`), so a walk can
+        go on in another process: the sweep walks each trial to its push once and every rollout
+        continues from there (:mod:`dcmviz.sweep.search`).  Unlike :meth:`restore_state`, which
+        refuses a state from another backend, the backend here is built for the state."""
+        session = cls(state.config, backend=state.backend_name)
+        session._restore(state)
+        return session
 
     def restore_state(self, state: SessionState) -> None:
         """Continue from ``state`` (saved by this session with the same backend): the next
@@ -452,6 +466,9 @@ class Session:
                 "state: saved with another backend (the robot, terrain or backend changed "
                 "since); it restores only into the backend it came from"
             )
+        self._restore(state)
+
+    def _restore(self, state: SessionState) -> None:
         self.last_state = self.backend.set_state(state.backend)
         self.config = state.config
         self.walker = state.walker.copy()
