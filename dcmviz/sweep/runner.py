@@ -110,7 +110,7 @@ def ray_init(num_cpus: int | None = None, address: str | None = None) -> bool:
 
 class RayRunner:
     """One Ray task per rollout; the prefix of each trial (walk to the push) is one task too,
-    its pickled session shared through the object store.
+    its pickled state there (Session.save_state) shared through the object store.
 
     Uses the Ray instance of this process if there is one (e.g. inside a Ray Tune trial),
     otherwise starts one (:func:`ray_init`) and stops it in :meth:`close`.
@@ -135,7 +135,7 @@ class RayRunner:
         options = {"num_cpus": 1, "max_retries": max_retries, "retry_exceptions": False}
         self._prefix_task = ray.remote(**options)(prefix_snapshot)
         self._rollout_task = ray.remote(**options)(rollout_fn)
-        self._prefixes: dict[str, Any] = {}  # trial key -> ObjectRef of the pickled session
+        self._prefixes: dict[str, Any] = {}  # trial key -> ObjectRef of its pickled state
         self._pending: dict[Any, tuple[str, Force]] = {}  # ObjectRef -> (trial key, force)
 
     def submit(self, key: str, trial: Trial, force: Force) -> None:
