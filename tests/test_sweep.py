@@ -187,3 +187,22 @@ def test_a_rollout_from_the_prefix_snapshot_equals_one_that_walks_there(backend:
         )  # fmt: skip
         outcomes.append(a.survived)
     assert outcomes == [True, False]
+
+
+def test_the_sweep_bench_compares_checkouts_in_processes_of_their_own(tmp_path: Path) -> None:
+    """``bench/sweep.py --vs``: each rate comes from a process that imports the given checkout's
+    dcmviz (asserted there) and runs the QUICK envelope, 4 directions × (6 + 2) probes = 32
+    rollouts; a path that is no checkout is refused with the flag named."""
+    import importlib.util
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("sweep_bench", root / "bench" / "sweep.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    rate, n, wall = bench.serial_rate_of(root, str(root / "presets" / "walk_forward.toml"), "lip")
+    assert n == 32 and rate == pytest.approx(n / wall, rel=1e-9)
+    out = subprocess.run([sys.executable, str(root / "bench" / "sweep.py"), "--vs", str(tmp_path)],
+                         capture_output=True, text=True)  # fmt: skip
+    assert out.returncode == 2 and "--vs" in out.stderr and "dcmviz checkout" in out.stderr
