@@ -38,7 +38,9 @@ robot whose knees are at their limit walking has none left for a push).  After t
 it prints how hard the legs can lean against a pull on one foot (``lean_bounds``, statics:
 :mod:`dcmviz.robots.lean`), with the trunk upright and rolled.  ``--json`` writes the same as data
 (``torque_headroom``: joint, limit_nm, at_limit_share, peak_share; ``lean``: trunk_roll_rad,
-pull_pct, com_outboard_m, binding).
+pull_pct, com_outboard_m, binding).  Under the push table it names the falls that came more than
+a second after a push had ended (``late_falls``, JSON ``push.late_falls``): the walk did not
+settle after a push it had caught, which is the whole-body layer's, not a capture limit.
 """
 
 from __future__ import annotations
@@ -288,6 +290,32 @@ def table(title: str, unit: str, summary: dict[str, Any], levels: list[float]) -
     return "\n".join(lines)
 
 
+SETTLE_S = 1.0  # a fall later than this after a push ended: the walk did not settle
+
+
+def late_falls(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Push rollouts that fell more than SETTLE_S after a push had ended (``after_push_s``; the
+    second push may have begun meanwhile: ``into_next_s``, else None): not a push the robot
+    could not catch when it came, but a walk that did not settle after it (an oscillation that
+    grew, a slow drift), which a push arriving then may only finish off."""
+    out = []
+    for r in results:
+        if not r["fell"]:
+            continue
+        first = float(r["row"].split()[1].rstrip("s"))  # "start 2.50s"
+        t = r["fall_time_s"]
+        starts = (first, first + PUSH_GAP_S)
+        ended = [k for k, s in enumerate(starts) if s + PUSH_S <= t]
+        if not ended or t <= starts[ended[-1]] + PUSH_S + SETTLE_S:
+            continue
+        k = ended[-1]
+        into = t - starts[k + 1] if k + 1 < len(starts) and starts[k + 1] <= t else None
+        out.append({"row": r["row"], "level": r["level"], "fall_time_s": t,
+                    "after_push_s": t - starts[k] - PUSH_S, "push": ("first", "second")[k],
+                    "into_next_s": into})  # fmt: skip
+    return sorted(out, key=lambda x: (x["row"], x["level"]))
+
+
 CEILING_ROWS = (
     ("humanoid", "the humanoid (MuJoCo)"),
     ("lever", "point mass, torso lever"),
@@ -452,6 +480,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\npush ±25 N × 1 s × m/76 kg × scale (F{PAPER_FORCE_N * mass / PAPER_MASS_KG:.1f}"
               f" N per unit scale); F<t>: fell at t s")  # fmt: skip
         print(table("push scale", unit_push, s, args.scales))
+        late = late_falls(pr)
+        out["push"]["late_falls"] = late
+        for x in late:
+            into = "" if x["into_next_s"] is None else f", {x['into_next_s']:.1f} s into the next"
+            print(f"  {x['row']}, {x['level']:g}x: fell {x['after_push_s']:.1f} s after the "
+                  f"{x['push']} push ended (at {x['fall_time_s']:.2f} s{into}): the walk had "
+                  "not settled")  # fmt: skip
         if args.ceiling:
             counts = {k: survived_counts([r for r in results if r["kind"] == k], args.scales)
                       for k in ("lever", "com")}  # fmt: skip

@@ -145,3 +145,28 @@ def test_the_ceiling_run_reports_each_rows_rollouts(tmp_path, capsys) -> None:
         assert data["ceiling"][key] == [0 if kinds[kind]["fell"] else 1]
     assert data["ceiling"]["humanoid"] == [1]
     assert "the humanoid survives every start at every scale" in capsys.readouterr().out
+
+
+def test_late_falls_are_those_a_second_after_a_push_ended() -> None:
+    """``bench/robustness.py`` names the push rollouts that fell more than SETTLE_S after a push
+    had ended (iCub's 1.5x at the 2.50 s start: 3.13 s after the first, 0.13 s into the second;
+    the G1's 2x at 2.95 s: 1.4 s after the first), not those that fell during a push or within
+    the second after it."""
+    rb = robustness_bench()
+    assert rb.PUSH_S == 1.0 and rb.PUSH_GAP_S == 4.0 and rb.SETTLE_S == 1.0
+    results = [
+        {"row": "start 2.50s", "level": 1.5, "fell": True, "fall_time_s": 6.63},  # late
+        {"row": "start 2.95s", "level": 2.0, "fell": True, "fall_time_s": 5.32},  # late
+        {"row": "start 3.40s", "level": 1.5, "fell": True, "fall_time_s": 4.8},  # in the push
+        {"row": "start 3.85s", "level": 2.0, "fell": True, "fall_time_s": 5.6},  # 0.75 s after
+        {"row": "start 2.50s", "level": 3.0, "fell": True, "fall_time_s": 8.9},  # late: second
+        {"row": "start 2.95s", "level": 1.0, "fell": False, "fall_time_s": None},
+    ]
+    late = {(x["row"], x["level"]): x for x in rb.late_falls(results)}
+    assert set(late) == {("start 2.50s", 1.5), ("start 2.95s", 2.0), ("start 2.50s", 3.0)}
+    first = late[("start 2.50s", 1.5)]
+    assert first["push"] == "first" and first["after_push_s"] == pytest.approx(6.63 - 3.5)
+    assert first["into_next_s"] == pytest.approx(6.63 - 6.5)
+    assert late[("start 2.95s", 2.0)]["into_next_s"] is None
+    second = late[("start 2.50s", 3.0)]
+    assert second["push"] == "second" and second["after_push_s"] == pytest.approx(8.9 - 7.5)
