@@ -2,10 +2,11 @@
 1-D boundary search over the push magnitude (coarse grid, then bisection).
 
 A rollout is a pure function of (trial, force): :func:`prefix_snapshot` simulates a trial up to
-the push once and pickles the session's state there (:meth:`Session.save_state`); :func:`rollout`
-continues from such a snapshot in a session built for it (:meth:`Session.from_state`, bit for bit
-what the walk to the push would give) and walks on with one push.  The serial path and the Ray tasks run exactly this
-code, so they give identical numbers.  :class:`BoundarySearch` is the search as a state machine
+the push once and pickles the session's state there (:meth:`Session.save_state`);
+:func:`rollout` continues from such a snapshot in a session built for it
+(:meth:`Session.from_state`, bit for bit what the walk to the push would give) and walks on
+with one push.  The serial path and the Ray tasks run exactly this code, so they give identical
+numbers.  :class:`BoundarySearch` is the search as a state machine
 (ask for probes, tell their outcomes), so many searches can be driven concurrently.
 """
 
