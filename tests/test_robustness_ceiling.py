@@ -170,3 +170,27 @@ def test_late_falls_are_those_a_second_after_a_push_ended() -> None:
     assert late[("start 2.95s", 2.0)]["into_next_s"] is None
     second = late[("start 2.50s", 3.0)]
     assert second["push"] == "second" and second["after_push_s"] == pytest.approx(8.9 - 7.5)
+
+
+def test_push_rollouts_from_the_shared_walk_to_the_push_equal_fresh_ones() -> None:
+    """``bench/robustness.py`` walks to a start's first push once per process and runs each force
+    from there (``_session``): the same fall, fall time, largest DCM error and steps as a fresh
+    session walking the whole run (the point mass with Talos's numbers, 1x survived, 3x fallen,
+    the second from the cached walk)."""
+    from dcmviz.session import Session
+
+    rb = robustness_bench()
+    base = rb.walking_config("talos", sim="lip")
+    mass = Session(base, backend="lip").mass
+    rb._PREFIX.clear()
+    for scale, falls in ((1.0, False), (3.0, True)):
+        job = rb.Job("push", "start 3.40s", scale, rb.push_config(base, mass, scale, 3.40),
+                     rb.PUSH_DURATION_S)  # fmt: skip
+        shared = rb.rollout(job)
+        fresh = Session(job.config, backend="lip")
+        metrics = fresh.run(rb.PUSH_DURATION_S, stop_on_fall=True)
+        assert shared["fell"] is metrics.fell is falls
+        assert shared["fall_time_s"] == metrics.fall_time_s
+        assert shared["max_dcm_error_m"] == metrics.max_dcm_error_m
+        assert shared["steps_completed"] == fresh.steps_completed
+    assert len(rb._PREFIX) == 1  # the walk to 3.40 s, once
