@@ -203,6 +203,7 @@ def rollout(job: Job) -> dict[str, Any]:
         "row": job.row,
         "level": job.level,
         "force_n": float(max(abs(p.force[1]) for p in job.config.pushes)),
+        "start_s": float(min(p.start for p in job.config.pushes)),  # the first push's
         "fell": bool(metrics.fell),
         "fall_time_s": metrics.fall_time_s,
         "steps_completed": int(session.steps_completed),
@@ -327,7 +328,7 @@ def late_falls(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
     for r in results:
         if not r["fell"]:
             continue
-        first = float(r["row"].split()[1].rstrip("s"))  # "start 2.50s"
+        first = r["start_s"]
         t = r["fall_time_s"]
         starts = (first, first + PUSH_GAP_S)
         ended = [k for k, s in enumerate(starts) if s + PUSH_S <= t]

@@ -162,6 +162,8 @@ def test_late_falls_are_those_a_second_after_a_push_ended() -> None:
         {"row": "start 2.50s", "level": 3.0, "fell": True, "fall_time_s": 8.9},  # late: second
         {"row": "start 2.95s", "level": 1.0, "fell": False, "fall_time_s": None},
     ]
+    for r in results:
+        r["start_s"] = float(r["row"][6:-1])
     late = {(x["row"], x["level"]): x for x in rb.late_falls(results)}
     assert set(late) == {("start 2.50s", 1.5), ("start 2.95s", 2.0), ("start 2.50s", 3.0)}
     first = late[("start 2.50s", 1.5)]
