@@ -50,7 +50,7 @@ from dcmviz.config import load_preset  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
 from dcmviz.dashboard.headless import launch_chromium  # noqa: E402
 from dcmviz.dashboard.loop import CONFIG_MIN_INTERVAL_S  # noqa: E402
-from dcmviz.dashboard.push import PUSH_N_PER_KG, default_magnitude  # noqa: E402
+from dcmviz.dashboard.push import default_magnitude  # noqa: E402
 
 
 def free_port() -> int:
@@ -666,7 +666,7 @@ def take_screenshot(page, dashboard: Dashboard, path: Path) -> None:
     resets = loop.resets
     loop.post("reset")
     # 60 N on the 90 kg Talos, by mass (the 33 kg G1 fell under 60 N held for 3 s)
-    held = round(0.4 * PUSH_N_PER_KG * loop.session.mass)  # 0.4 of a click's default
+    held = 0.4 * default_magnitude(loop.session.mass)  # 0.4 of a click's default
     push = {"force": (0.0, held, 0.0), "duration": 3.0, "ramp": 0.5, "body": "torso", "start": 1.6}
     loop.post("push", push)
     deadline = time.time() + 60

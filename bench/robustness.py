@@ -170,27 +170,26 @@ _PREFIX: dict[str, Any] = {}  # this process's walk to the first push: key -> Se
 
 
 def _session(job: Job):
-    """A session for ``job`` at its first push's start: the walk there is the same for every
-    force, so it is walked once per process (the push jobs of one start come in one chunk) and
-    each job continues from its state (``Session.from_state``, bit for bit) with its own pushes."""
-    import dataclasses
-
+    """A session for ``job``: for a push, the walk to its first push is the same for every force,
+    so it is walked once per process (the push jobs of one start come in one chunk) and each job
+    continues from its state (``Session.from_state``, bit for bit) with its pushes scheduled."""
     from dcmviz.session import Session
 
-    start = min((p.start for p in job.config.pushes), default=0.0)
-    if job.kind == "pull" or start <= 0.0:
+    start = min(p.start for p in job.config.pushes)
+    if job.kind == "pull":
         return Session(job.config, backend=job.config.sim.backend)
-    key = job.config.model_copy(update={"pushes": ()}).model_dump_json() + f"{start!r}{job.gains}"
+    walk = job.config.model_copy(update={"pushes": ()})
+    key = walk.model_dump_json() + f"{start!r}{job.gains}"
     state = _PREFIX.get(key)
     if state is None:
-        session = Session(job.config, backend=job.config.sim.backend)
+        session = Session(walk, backend=walk.sim.backend)
         session.run(start - session.t, stop_on_fall=True)  # every tick before the push starts
         _PREFIX.clear()  # one prefix kept: the jobs come ordered by start
         state = _PREFIX[key] = session.save_state()
-    pushes = tuple(job.config.pushes)  # none has begun: all pending, as a fresh session has them
-    return Session.from_state(
-        dataclasses.replace(state, config=job.config, pushes=pushes, pending=pushes)
-    )
+    session = Session.from_state(state)
+    for p in job.config.pushes:
+        session.push(p.force, p.duration, ramp=p.ramp, body=p.body, start=p.start)
+    return session
 
 
 def rollout(job: Job) -> dict[str, Any]:
@@ -440,25 +439,23 @@ def main(argv: list[str] | None = None) -> int:
         overrides.append("control.observer=false")
     base = walking_config(args.robot, args.preset, overrides, args.sim)
     mass = load_robot(args.robot).spec.mass_kg
-    factor = lever_factor(args.robot) if args.lever else 1.0
+    lever = lever_factor(args.robot)
+    factor = lever if args.lever else 1.0
     cycle = 2.0 * (base.gait.t_ss + base.gait.t_ds)
     offsets = [round(cycle * i / args.starts, 3) for i in range(args.starts)]
     sides = [s.strip() for s in args.pull_sides.split(",") if s.strip()]
     jobs: list[Job] = []
     if args.only in (None, "push"):
-        for off in offsets:
-            for sc in args.scales:
-                cfg = push_config(base, mass, sc, PUSH_FIRST_S + off, factor)
-                jobs.append(Job("push", f"start {PUSH_FIRST_S + off:.2f}s", sc, cfg,
-                                PUSH_DURATION_S, gains))  # fmt: skip
+        runs = [("push", base, factor, gains)]
         if args.ceiling:  # the same pushes on the point mass with the robot's numbers
             lip = walking_config(args.robot, args.preset, overrides, "lip")
-            for kind, f in (("lever", lever_factor(args.robot)), ("com", 1.0)):
-                for off in offsets:
-                    for sc in args.scales:
-                        cfg = push_config(lip, mass, sc, PUSH_FIRST_S + off, f)
-                        jobs.append(Job(kind, f"start {PUSH_FIRST_S + off:.2f}s", sc, cfg,
-                                        PUSH_DURATION_S))  # fmt: skip
+            runs += [("lever", lip, lever, ()), ("com", lip, 1.0, ())]
+        for kind, walk, f, g in runs:
+            for off in offsets:
+                for sc in args.scales:
+                    cfg = push_config(walk, mass, sc, PUSH_FIRST_S + off, f)
+                    jobs.append(Job(kind, f"start {PUSH_FIRST_S + off:.2f}s", sc, cfg,
+                                    PUSH_DURATION_S, g))  # fmt: skip
     if args.only in (None, "pull"):
         for side in sides:
             sign = -1.0 if side.startswith("-") else 1.0
@@ -520,10 +517,10 @@ def main(argv: list[str] | None = None) -> int:
                       for k in ("lever", "com")}  # fmt: skip
             counts["humanoid"] = survived_counts(pr, args.scales)
             out["ceiling"] = {"scales": args.scales, "starts": args.starts,
-                              "lever_factor": lever_factor(args.robot), **counts}  # fmt: skip
+                              "lever_factor": lever, **counts}  # fmt: skip
             print(f"\nthe paper's controller on the point mass with this robot's numbers, the same "
                   f"pushes (survived starts of {args.starts}; torso lever (z + h)/z = "
-                  f"{lever_factor(args.robot):.2f}):")  # fmt: skip
+                  f"{lever:.2f}):")  # fmt: skip
             head = f"{'':<26}" + "".join(f"{sc:>6g}x" for sc in args.scales)
             print(head)
             for key, label in CEILING_ROWS:

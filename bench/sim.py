@@ -29,8 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from dcmviz.config import load_preset
-from dcmviz.gait.terrain import terrain_of
 from dcmviz.robots import load_robot
+from dcmviz.session.session import make_backend
 from dcmviz.sim import mujoco_sim
 from dcmviz.sim.mujoco_sim import MujocoBackend
 from dcmviz.sim.wbc import solver
@@ -75,11 +75,11 @@ def run(args) -> str:
     clock = time.thread_time if args.clock == "cpu" else time.perf_counter
     mujoco_sim._clock = solver._clock = clock
     config = load_preset(args.preset)
-    terrain = terrain_of(config.terrain)  # as a Session builds it (the stairs' treads)
-    backend = MujocoBackend(load_robot(config.robot.model), terrain=terrain)
+    # as a Session builds it: the preset's terrain (the stairs' treads) under the backend
+    backend = make_backend(config, load_robot(config.robot.model), "mujoco")
     state = backend.reset()
     walker = Walker(config, backend.robot, mass=backend.mass, dt=backend.control_dt,
-                    terrain=terrain)  # fmt: skip
+                    terrain=backend.terrain)  # fmt: skip
     walker.reset(state)
     duration = args.duration or config.sim.duration
     walker_s = 0.0

@@ -19,7 +19,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from dcmviz.robots.feet import SIDES
-from dcmviz.robots.file import RobotFileError, parse_robot_file, resolve_robot_path
+from dcmviz.robots.file import (
+    BUILTIN_ROBOTS,
+    RobotFileError,
+    parse_robot_file,
+    resolve_robot_path,
+)
 from dcmviz.robots.model import RobotModel, build_from_file
 from dcmviz.robots.spec import RobotSpec
 
@@ -105,8 +110,6 @@ class Robot:
         """Pickled as its ``robot.model`` (a robot file's as an absolute path): unpickled, it is
         that process's own robot (:func:`load_robot`, built once per process and file version).
         A walker or a session state pickles with it, e.g. to continue a walk in a Ray worker."""
-        from dcmviz.robots.file import BUILTIN_ROBOTS
-
         model = self.name if self.name in BUILTIN_ROBOTS else resolve_robot_path(self.name)
         return (load_robot, (model,))
 
