@@ -2,6 +2,7 @@
 
     PYTHONPATH=. python3 bench/dashboard.py [--preset presets/walk_forward.toml] [--seconds 10]
                                             [--clients 0,1,5] [--tabs 5] [--latency]
+                                            [--viewport 1600x900] [--gpu-compositing]
                                             [--screenshot PNG] [--first-view docs/dashboard.png]
                                             [--pictures docs]
 
@@ -22,7 +23,11 @@
    part of it; and scrubbing, the walk paused and the time slider swept through the buffer
    (the last 60 s) at 60 seeks a second: frames the scene draws per second (target ≥ 20) and
    the buffer's memory; and where a frame goes (:func:`frame_split`: as drawn, without the
-   robot, without the floor grid, without both).
+   robot, without the floor grid, without both) and the page's main thread (a Chromium trace:
+   busy, waiting for WebGL frames copied back, the GPU process busy).  ``--viewport WxH``
+   (default 1600x900) sets the page's size and ``--gpu-compositing`` composites on
+   SwiftShader's emulated GPU path as a browser with a GPU does (the tests' ``--disable-gpu``
+   composites in software and copies each WebGL frame back on the main thread).
 4. ``--first-view PNG``: what a newcomer sees (the README's picture): ``python app.py``'s
    dashboard, a fresh 1400 × 800 tab opened on it, photographed a few seconds into the walk
    (headless Chromium's "software WebGL" notice closed: a browser with a GPU shows none).
@@ -204,6 +209,41 @@ def frame_split(page, dashboard: Dashboard, seconds: float = 4.0) -> None:
     )
 
 
+def main_thread_split(browser, page, seconds: float = 3.0) -> None:
+    """Where the page's main thread goes, the walk running (a Chromium trace): its busy share
+    and the share spent waiting for the WebGL frame to be copied back (``GLES2::ReadPixels``,
+    software compositing only), and the GPU process's busy share (SwiftShader drawing)."""
+    import tempfile
+
+    path = Path(tempfile.mkdtemp()) / "trace.json"
+    browser.start_tracing(page=page, path=str(path), categories=["toplevel", "gpu", "cc"])
+    time.sleep(seconds)
+    browser.stop_tracing()
+    events = json.loads(path.read_text())
+    events = events["traceEvents"] if isinstance(events, dict) else events
+    threads = {(e["pid"], e["tid"]): e["args"]["name"] for e in events
+               if e.get("ph") == "M" and e.get("name") == "thread_name"}  # fmt: skip
+    busy = {"CrRendererMain": 0.0, "CrGpuMain": 0.0}
+    readback, frames = 0.0, 0
+    for e in events:
+        thread = threads.get((e.get("pid"), e.get("tid")))
+        if e.get("ph") != "X" or thread not in busy:
+            continue
+        if e["name"] == "ThreadControllerImpl::RunTask":
+            busy[thread] += e["dur"]
+        elif e["name"] == "GLES2::ReadPixels" and thread == "CrRendererMain":
+            readback += e["dur"]
+        elif e["name"] == "ProxyMain::BeginMainFrame" and thread == "CrRendererMain":
+            frames += 1
+    span = seconds * 1e6
+    print(
+        f"  the page's main thread busy {100 * busy['CrRendererMain'] / span:.0f} % of the time, "
+        f"{100 * readback / span:.0f} % waiting for WebGL frames copied back (GLES2::ReadPixels); "
+        f"the GPU process (SwiftShader) busy {100 * busy['CrGpuMain'] / span:.0f} %; "
+        f"{frames / seconds:.1f} main frames a second"
+    )
+
+
 def scrub_fps(dashboard: Dashboard, sweeps: int = 2, seconds_per_sweep: float = 3.0) -> None:
     """Pause, then sweep the time slider through the buffer at 60 seeks a second, and print the
     scene's frames drawn per second while it scrubs and what the buffer holds."""
@@ -373,6 +413,13 @@ def main() -> None:
     parser.add_argument("--nice-browsers", type=int, default=0,
                         help="then renice the browsers to this and measure again")  # fmt: skip
     parser.add_argument("--latency", action="store_true", help="also measure preview latency")
+    parser.add_argument("--viewport", default="1600x900", help="the latency page's size, WxH")
+    parser.add_argument(
+        "--gpu-compositing",
+        action="store_true",
+        help="--latency in Chromium compositing on SwiftShader's GPU path "
+        "(as a browser with a GPU does) instead of the tests' software path",
+    )
     parser.add_argument("--drag", action="store_true", help="real time while sliders are dragged")
     parser.add_argument("--sweep", action="store_true", help="real time during a Sweep-tab sweep")
     args = parser.parse_args()
@@ -428,8 +475,9 @@ def main() -> None:
         f"p95 {np.percentile(lat, 95):.1f} ms"
     )
     with sync_playwright() as p:
-        browser = launch_chromium(p)
-        page = browser.new_page(viewport={"width": 1600, "height": 900})
+        browser = launch_chromium(p, gpu_compositing=args.gpu_compositing)
+        width, height = (int(v) for v in args.viewport.lower().split("x"))
+        page = browser.new_page(viewport={"width": width, "height": height})
         page.goto(url)
         page.get_by_text("T_ss [s]").wait_for(timeout=60_000)
         time.sleep(2.0)
@@ -474,13 +522,18 @@ def main() -> None:
 
         browser_ms, server_ms = input_to_canvas_ms(page, dashboard)
         print(
-            f"input → Fig. 1a canvas in Chromium (Δx typed: its input event → preview plots repainted), "
+            f"input → Fig. 1a canvas in Chromium ({width}×{height}, "
+            f"{'GPU path in SwiftShader' if args.gpu_compositing else 'software'} compositing; "
+            "Δx typed: its input event → preview plots repainted), "
             f"n={len(browser_ms)}: median {np.median(browser_ms):.0f} ms, max "
             f"{browser_ms.max():.0f} ms (target ≤ 150 ms on an idle machine); of it the server "
             f"(editor → plan → plots sent): median {np.median(server_ms):.0f} ms; the rest is "
-            "the websocket, the page's React update and uPlot's repaint"
+            "frames: viser's page applies messages queued behind scene updates at its next "
+            "animation frame, and the repaint shows at the one after (each as long as the "
+            "GPU process, SwiftShader here, takes to draw the scene)"
         )
         frame_split(page, dashboard)
+        main_thread_split(browser, page)
         deadline = time.time() + 120
         while dashboard.loop.timeline.seconds_kept() < 59.5 and time.time() < deadline:
             time.sleep(0.5)  # the buffer fills with the walk (the last 60 s are kept)
