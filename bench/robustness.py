@@ -41,6 +41,14 @@ it prints how hard the legs can lean against a pull on one foot (``lean_bounds``
 pull_pct, com_outboard_m, binding).  Under the push table it names the falls that came more than
 a second after a push had ended (``late_falls``, JSON ``push.late_falls``): the walk did not
 settle after a push it had caught, which is the whole-body layer's, not a capture limit.
+With MuJoCo each rollout counts, from the push (or the pull) on, the ticks with a joint's torque
+at ≥ AT_LIMIT of its limit (JSON ``torque_limits`` per rollout): each row's first fall is told
+with that share, the same over its last FINAL_S and the joints there most often
+(``first_fall_torque_limits``).  A share that is high from the push on says the actuators, which
+the point mass does not model, were saturated all through the recovery (Romeo at 2x: 67-78 %,
+its knees at 38 N m); high only at the end, it may be the fall's symptom, not its cause (Talos's
+2x falls, 65 % of their last 0.5 s at the stance hip roll's 160 N m, come at the same times
+with every torque limit raised by half in an experiment).
 """
 
 from __future__ import annotations
@@ -192,11 +200,57 @@ def _session(job: Job):
     return session
 
 
+FINAL_S = 0.5  # s before a fall whose torque limits are told apart
+
+
+def _run_counting_torque_limits(session, job: Job) -> dict[str, Any] | None:
+    """Run ``session`` to the job's end (or its fall) and, on the humanoid, count from the load's
+    start (the first push's, or the pull's) the ticks in which the whole-body QP's torque is at a
+    joint's limit (≥ AT_LIMIT of it): ``share`` of those ticks with any joint there, the same
+    over the last FINAL_S before the end (``final_share``: a fall at the actuators' limits reads
+    1.0) with the ``final_joints`` there most often, and the ``joints`` at their limit most often
+    from the load's start, each with its share.  None on the point mass, which has no joints."""
+    end = job.duration
+    if job.config.sim.backend != "mujoco":
+        session.run(end - session.t, stop_on_fall=True)
+        return None
+    start = min(p.start for p in job.config.pushes) if job.kind != "pull" else PULL_START_S
+    robot = session.backend.robot
+    limit, names = AT_LIMIT * robot.torque_limit, robot.model.joint_names
+    counts = np.zeros(len(names), int)
+    recent: list[bool] = []  # any joint at its limit, per tick from the load's start
+    recent_joints: list[np.ndarray] = []
+    keep = max(1, round(FINAL_S / session.backend.control_dt))
+    while session.t < end - 1e-9:
+        session.step()
+        if session.t >= start:
+            at = np.abs(session.backend.wbc.last.tau) >= limit
+            counts += at
+            recent.append(bool(at.any()))
+            recent_joints.append(at)
+        if session.metrics.fell:
+            break
+    n = len(recent)
+    if n == 0:
+        return {"share": 0.0, "final_share": 0.0, "final_joints": [], "joints": []}
+    order = [i for i in np.argsort(-counts, kind="stable")[:3] if counts[i]]
+    final = np.mean(recent_joints[-keep:], axis=0)  # per joint, share of the last FINAL_S
+    return {
+        "share": sum(recent) / n,
+        "final_share": sum(recent[-keep:]) / len(recent[-keep:]),
+        "final_joints": [
+            [names[i], float(final[i])] for i in np.argsort(-final, kind="stable") if final[i] > 0
+        ][:3],  # fmt: skip
+        "joints": [[names[i], float(counts[i] / n)] for i in order],
+    }
+
+
 def rollout(job: Job) -> dict[str, Any]:
     _with_gains(job.gains)
     t0 = time.perf_counter()
     session = _session(job)
-    metrics = session.run(job.duration - session.t, stop_on_fall=True)
+    limits = _run_counting_torque_limits(session, job)
+    metrics = session.metrics
     return {
         "kind": job.kind,
         "row": job.row,
@@ -207,6 +261,7 @@ def rollout(job: Job) -> dict[str, Any]:
         "fall_time_s": metrics.fall_time_s,
         "steps_completed": int(session.steps_completed),
         "max_dcm_error_m": float(metrics.max_dcm_error_m),
+        "torque_limits": limits,
         "wall_s": time.perf_counter() - t0,
     }
 
@@ -341,6 +396,40 @@ def late_falls(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return sorted(out, key=lambda x: (x["row"], x["level"]))
 
 
+def first_fall_torque_limits(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Each row's first fall (its lowest level that fell) on the humanoid, with its torque limits
+    (:func:`_run_counting_torque_limits`)."""
+    out = []
+    for row in dict.fromkeys(r["row"] for r in results):
+        falls = sorted((r for r in results if r["row"] == row and r["fell"]
+                        and r.get("torque_limits") is not None), key=lambda r: r["level"])  # fmt: skip
+        if not falls:
+            continue
+        r = falls[0]
+        lim = r["torque_limits"]
+        out.append({"row": row, "level": r["level"], "fall_time_s": r["fall_time_s"], **lim})
+    return out
+
+
+def print_first_fall_torque_limits(
+    results: list[dict[str, Any]], load: str
+) -> list[dict[str, Any]]:
+    """Print :func:`first_fall_torque_limits` under a table (none on the point mass); returns it."""
+    limits = first_fall_torque_limits(results)
+    if limits:
+        print(f"  each row's first fall: the share of ticks from the {load} with a joint's torque"
+              f" at ≥ {AT_LIMIT:.0%} of its limit; the same in the last {FINAL_S:g} s; the joints"
+              f" there most often from the {load}:")  # fmt: skip
+    unit = "x" if load == "push" else " %"
+    for x in limits:
+        joints = ", ".join(f"{j} {sh:.0%}" for j, sh in x["joints"]) or "-"
+        print(
+            f"  {x['row']}, {x['level']:g}{unit} (fell at {x['fall_time_s']:.2f} s): "
+            f"{x['share']:.0%}; {x['final_share']:.0%} ({joints})"
+        )
+    return limits
+
+
 CEILING_ROWS = (
     ("humanoid", "the humanoid (MuJoCo)"),
     ("lever", "point mass, torso lever"),
@@ -362,6 +451,7 @@ def ceiling_verdicts(scales: list[float], starts: int, counts: dict[str, list[in
     - the point mass falls only with the torso push's moment loaded on its CoP (``--lever``):
       what the humanoid would gain by taking that moment as angular momentum (issue 22, item 4);
     - the lever-loaded point mass survives more starts than the humanoid: the whole-body layer.
+
     """
     lines = []
     for i, sc in enumerate(scales):
@@ -512,6 +602,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  {x['row']}, {x['level']:g}x: fell {x['after_push_s']:.1f} s after the "
                   f"{x['push']} push ended (at {x['fall_time_s']:.2f} s{into}): the walk had "
                   "not settled")  # fmt: skip
+        out["push"]["first_fall_torque_limits"] = print_first_fall_torque_limits(pr, "push")
         if args.ceiling:
             counts = {k: survived_counts([r for r in results if r["kind"] == k], args.scales)
                       for k in ("lever", "com")}  # fmt: skip
@@ -533,6 +624,7 @@ def main(argv: list[str] | None = None) -> int:
         out["pull"] = {"levels_pct": args.levels, "rows": s}
         print(f"\npull ramped over {PULL_RAMP_S:g} s and held, % of m g ({mass * GRAVITY:.0f} N)")
         print(table("pull % mg", "%", s, args.levels))
+        out["pull"]["first_fall_torque_limits"] = print_first_fall_torque_limits(pr, "pull")
         out["lean"] = leans = lean_bounds(args.robot)
         print(
             "\non one foot, the largest pull the legs lean against (statics, joint ranges, CoP on"

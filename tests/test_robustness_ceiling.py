@@ -196,3 +196,66 @@ def test_push_rollouts_from_the_shared_walk_to_the_push_equal_fresh_ones() -> No
         assert shared["max_dcm_error_m"] == metrics.max_dcm_error_m
         assert shared["steps_completed"] == fresh.steps_completed
     assert len(rb._PREFIX) == 1  # the walk to 3.40 s, once
+
+
+def _limits(final: float, joints=(("RKneePitch", 0.4),), final_joints=(("RKneePitch", 1.0),)):
+    return {"share": 0.6, "final_share": final, "final_joints": [list(j) for j in final_joints],
+            "joints": [list(j) for j in joints]}  # fmt: skip
+
+
+def test_each_rows_first_fall_is_told_with_its_torque_limits() -> None:
+    """``first_fall_torque_limits``: per row the lowest level that fell (not a higher one, nor a
+    survived one) with its counts; the point mass's rollouts (no torque limits) are left out."""
+    rb = robustness_bench()
+    results = [
+        {"row": "start 2.50s", "level": 1.5, "fell": False, "fall_time_s": None,
+         "torque_limits": _limits(0.0)},
+        {"row": "start 2.50s", "level": 2.5, "fell": True, "fall_time_s": 4.2,
+         "torque_limits": _limits(0.2)},
+        {"row": "start 2.50s", "level": 2.0, "fell": True, "fall_time_s": 4.0,
+         "torque_limits": _limits(1.0)},
+        {"row": "start 2.95s", "level": 2.0, "fell": True, "fall_time_s": 5.1,
+         "torque_limits": _limits(0.49)},
+        {"row": "start 3.40s", "level": 2.0, "fell": True, "fall_time_s": 5.3,
+         "torque_limits": None},  # the point mass
+    ]  # fmt: skip
+    firsts = {x["row"]: x for x in rb.first_fall_torque_limits(results)}
+    assert set(firsts) == {"start 2.50s", "start 2.95s"}
+    assert firsts["start 2.50s"]["level"] == 2.0 and firsts["start 2.50s"]["final_share"] == 1.0
+    assert firsts["start 2.95s"]["final_share"] == 0.49
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scale", [2.0, 2.5])
+def test_romeos_falls_under_twice_the_paper_push_come_at_its_torque_limits(scale: float) -> None:
+    """Romeo (40.5 kg, knees 38 N m, ankles 26 N m) pushed at 2x and 2.5x from 3.40 s falls with
+    a joint at its torque limit through most of the recovery and of its last 0.5 s (knees, hip
+    yaw): the rollout's count of those ticks
+    equals one made independently from what MuJoCo's actuators applied (``actuator_force`` at
+    ≥ 98 % of ``ctrlrange``) in a fresh session walking the same push."""
+    import numpy as np
+
+    rb = robustness_bench()
+    base = rb.walking_config("romeo")
+    config = rb.push_config(base, Session(base, backend="lip").mass, scale, 3.40)
+    rb._PREFIX.clear()
+    record = rb.rollout(rb.Job("push", "start 3.40s", scale, config, rb.PUSH_DURATION_S))
+    assert record["fell"]
+    limits = record["torque_limits"]
+    assert limits["share"] > 0.5  # saturated through most of the recovery (67-78 % at 2x)
+    assert limits["final_share"] > 0.5  # measured: 1.0 at 2x, 0.88 at 2.5x
+    fresh = Session(config, backend="mujoco")
+    data, top = fresh.backend.data, fresh.backend.model.actuator_ctrlrange[:, 1]
+    at = []
+    while fresh.t < rb.PUSH_DURATION_S - 1e-9:
+        fresh.step()
+        if fresh.t >= 3.40:
+            at.append(np.abs(data.actuator_force) >= rb.AT_LIMIT * top)
+        if fresh.metrics.fell:
+            break
+    at = np.array(at)
+    assert fresh.metrics.fall_time_s == record["fall_time_s"]
+    assert limits["share"] == pytest.approx(at.any(axis=1).mean(), abs=1e-12)
+    names = fresh.backend.robot.model.joint_names
+    for joint, share in limits["joints"]:
+        assert share == pytest.approx(at[:, list(names).index(joint)].mean(), abs=1e-12)
