@@ -234,6 +234,21 @@ BAD = [
         "[posture]\nleft_knee_jont = 0.3",
         ["posture.left_knee_jont", "expected"],
     ),
+    (
+        "[bodies]",
+        "[actuators]\ntorque_limits = { left_knee_jont = 100.0 }\n\n[bodies]",
+        ["actuators.torque_limits", "left_knee_jont", "not an actuated joint", "expected"],
+    ),
+    (
+        "[bodies]",
+        "[actuators]\ntorque_limits = { left_knee_joint = -5.0 }\n\n[bodies]",
+        ["actuators.torque_limits", "left_knee_joint = -5.0", "expected"],
+    ),
+    (
+        "[bodies]",
+        "[actuators]\ntorque_scale = 0.0\n\n[bodies]",
+        ["actuators.torque_scale", "greater than 0"],
+    ),
 ]
 
 
@@ -334,3 +349,29 @@ def test_controller_values_of_a_robot_file_reach_the_whole_body_qp(tmp_path):
     assert (gains.kp_foot, gains.friction) == (400.0, 0.6)
     assert gains.kd_foot == Gains().kd_foot  # the rest keep the defaults
     assert WholeBodyController(load_robot("g1")).gains == Gains()  # built-ins set none
+
+
+def test_torque_limits_of_a_robot_file_reach_the_qp_and_mujocos_motors(tmp_path):
+    """``[actuators] torque_limits`` replaces a joint's URDF effort and ``torque_scale`` then
+    multiplies every actuated joint's: the robot's limits (the whole-body QP's bounds) equal the
+    URDF's <limit effort> read by hand with those changes, and MuJoCo clamps each motor there
+    (its ctrlrange and the joint's actuator-force range: MuJoCo's URDF import set the latter
+    from the effort, so a replaced limit was clamped at the URDF's before)."""
+    text = ROBOT_FILE.replace('name = "g1_hands"', 'name = "g1_strong"').replace(
+        "[bodies]",
+        "[actuators]\ntorque_limits = { left_knee_joint = 100.0 }\ntorque_scale = 1.5\n\n[bodies]",
+    )
+    robot = load_robot(str(_write_robot(tmp_path, text, "g1_strong.toml")))
+    efforts = {
+        j.get("name"): float(j.find("limit").get("effort"))
+        for j in ET.parse(tmp_path / "g1_hands.urdf").getroot().iter("joint")
+        if j.find("limit") is not None
+    }
+    expected = [1.5 * (100.0 if n == "left_knee_joint" else efforts[n]) for n in robot.joint_names]
+    np.testing.assert_allclose(robot.torque_limit, expected, rtol=1e-12)
+    model = MujocoBackend(robot).model
+    for name, limit in zip(robot.joint_names, expected, strict=True):
+        assert model.actuator(name).ctrlrange.tolist() == pytest.approx([-limit, limit])
+        j = model.joint(name).id
+        assert model.jnt_actfrclimited[j] == 1
+        assert model.jnt_actfrcrange[j].tolist() == pytest.approx([-limit, limit])

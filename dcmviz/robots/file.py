@@ -177,10 +177,24 @@ class StandingTable(_Table):
 
 
 class ActuatorsTable(_Table):
-    """``[actuators]``: joint properties a URDF does not carry (defaults scale with the mass)."""
+    """``[actuators]``: joint properties a URDF does not carry (defaults scale with the mass),
+    and torque limits that replace the model's (a URDF's ``<limit effort>``, an MJCF's
+    ``actuatorfrcrange`` or motor): ``torque_limits`` per actuated joint (N m), then every
+    actuated joint's limit times ``torque_scale``.  The whole-body QP, MuJoCo's motors and the
+    derived numbers (the standing posture's torque check) all use the result."""
 
     armature: float | None = Field(None, ge=0.0, le=10.0)  # kg m², reflected rotor inertia
     damping: float | None = Field(None, ge=0.0, le=100.0)  # N m s/rad, viscous
+    torque_limits: dict[str, float] = Field(default_factory=dict)  # joint → N m
+    torque_scale: float = Field(1.0, gt=0.0, le=100.0)
+
+    @field_validator("torque_limits")
+    @classmethod
+    def _torques(cls, v: dict[str, float]) -> dict[str, float]:
+        for name, nm in v.items():
+            if not (math.isfinite(nm) and 0.0 < nm <= 10_000.0):
+                raise ValueError(f"{name} = {nm}: expected a torque limit in (0, 10000] N m")
+        return v
 
 
 class WalkingTable(_Table):

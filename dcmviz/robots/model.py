@@ -167,6 +167,22 @@ def _edited_model(rf: RobotFile, src: _Source, actuated: set[str], nominal: dict
     return text, pm, locked, sole_parent
 
 
+def _set_torque_limits(rf: RobotFile, pm, joint_names: tuple[str, ...]) -> None:
+    """``[actuators] torque_limits`` and ``torque_scale`` into the model's effort limits (the
+    one place the QP, MuJoCo's motors and the derived numbers read them from)."""
+    act = rf.actuators
+    for name, nm in act.torque_limits.items():
+        if name not in joint_names:
+            raise _err(
+                rf,
+                f"actuators.torque_limits: {name!r} is not an actuated joint; expected one of "
+                f"{', '.join(joint_names)} (the legs' and joints.keep's)",
+            )
+        pm.effortLimit[6 + joint_names.index(name)] = nm
+    if act.torque_scale != 1.0:
+        pm.effortLimit[6:] *= act.torque_scale
+
+
 def _limits(rf: RobotFile, pm, joint_names: tuple[str, ...]) -> dict[str, LegLimits]:
     limits = {}
     for i, name in enumerate(joint_names):
@@ -180,7 +196,8 @@ def _limits(rf: RobotFile, pm, joint_names: tuple[str, ...]) -> dict[str, LegLim
             raise _err(
                 rf,
                 f"model.urdf: joint {name!r} has no <limit effort lower upper>; expected torque "
-                "and position limits on every actuated joint"
+                "and position limits on every actuated joint (a torque limit may also be given "
+                "in [actuators] torque_limits)"
                 if rf.mjcf_path == ""
                 else f"model.mjcf: joint {name!r} has no range or no torque limit; expected a "
                 "range and an actuatorfrcrange (or a motor with a ctrlrange) on every actuated "
@@ -202,6 +219,7 @@ def build_from_file(rf: RobotFile) -> RobotModel:
     if set(joint_names) != actuated:  # pragma: no cover - the edit keeps exactly these
         raise _err(rf, f"joints: unexpected actuated joints {joint_names}")
     sole_frames = {s: pm.getFrameId(f"{s}_sole_link") for s in SIDES}
+    _set_torque_limits(rf, pm, joint_names)
     limits = _limits(rf, pm, joint_names)
     q = standing_posture(rf, pm, joint_names, nominal, sole_frames, base)
     mass = float(pin.computeTotalMass(pm))

@@ -85,6 +85,10 @@ class MujocoModel:
             act.biastype = mujoco.mjtBias.mjBIAS_NONE
             act.ctrllimited = True
             act.ctrlrange = [-lim, lim]
+            # the joint's own clamp on actuator force (MuJoCo's URDF import sets it from
+            # <limit effort>) equal to the same limit: one limit, whatever the file replaced
+            joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_TRUE
+            joint.actfrcrange = [-lim, lim]
         self._add_leg_capsules(spec, rm, LEG_RADIUS_PER_FOOT_WIDTH * fw)
         self.model: mujoco.MjModel = spec.compile()
         # the uncompiled scene (robot + flat floor); a backend copies it to add terrain
