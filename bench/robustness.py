@@ -215,34 +215,30 @@ def _run_counting_torque_limits(session, job: Job) -> dict[str, Any] | None:
     if job.config.sim.backend != "mujoco":
         session.run(end - session.t, stop_on_fall=True)
         return None
-    start = min(p.start for p in job.config.pushes) if job.kind != "pull" else PULL_START_S
+    start = min(p.start for p in job.config.pushes)  # the first push's, or the pull's
     robot = session.backend.robot
     limit, names = AT_LIMIT * robot.torque_limit, robot.model.joint_names
-    counts = np.zeros(len(names), int)
-    recent: list[bool] = []  # any joint at its limit, per tick from the load's start
-    recent_joints: list[np.ndarray] = []
-    keep = max(1, round(FINAL_S / session.backend.control_dt))
+    rows: list[np.ndarray] = []  # per tick from the load's start: which joints are at the limit
     while session.t < end - 1e-9:
         session.step()
         if session.t >= start:
-            at = np.abs(session.backend.wbc.last.tau) >= limit
-            counts += at
-            recent.append(bool(at.any()))
-            recent_joints.append(at)
+            rows.append(np.abs(session.backend.wbc.last.tau) >= limit)
         if session.metrics.fell:
             break
-    n = len(recent)
-    if n == 0:
+    if not rows:
         return {"share": 0.0, "final_share": 0.0, "final_joints": [], "joints": []}
-    order = [i for i in np.argsort(-counts, kind="stable")[:3] if counts[i]]
-    final = np.mean(recent_joints[-keep:], axis=0)  # per joint, share of the last FINAL_S
+    at = np.array(rows)
+    final = at[-max(1, round(FINAL_S / session.backend.control_dt)) :]
+
+    def busiest(shares: np.ndarray) -> list[list]:
+        return [[names[i], float(shares[i])] for i in np.argsort(-shares, kind="stable")[:3]
+                if shares[i] > 0]  # fmt: skip
+
     return {
-        "share": sum(recent) / n,
-        "final_share": sum(recent[-keep:]) / len(recent[-keep:]),
-        "final_joints": [
-            [names[i], float(final[i])] for i in np.argsort(-final, kind="stable") if final[i] > 0
-        ][:3],  # fmt: skip
-        "joints": [[names[i], float(counts[i] / n)] for i in order],
+        "share": float(at.any(axis=1).mean()),
+        "final_share": float(final.any(axis=1).mean()),
+        "final_joints": busiest(final.mean(axis=0)),
+        "joints": busiest(at.mean(axis=0)),
     }
 
 
@@ -452,7 +448,6 @@ def ceiling_verdicts(scales: list[float], starts: int, counts: dict[str, list[in
     - the point mass falls only with the torso push's moment loaded on its CoP (``--lever``):
       what the humanoid would gain by taking that moment as angular momentum (issue 22, item 4);
     - the lever-loaded point mass survives more starts than the humanoid: the whole-body layer.
-
     """
     lines = []
     for i, sc in enumerate(scales):
