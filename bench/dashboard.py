@@ -19,8 +19,9 @@
 3. Optionally a screenshot of the dashboard with the robot walking and the preview drawn.
 3b. With ``--latency``, in the browser (issue 25): input → Fig. 1a canvas, the time from the
    input event of a Δx typed into its number box (viser sends the value then) to the first
-   animation frame in which the preview plots' canvases show other pixels (target ≤ 150 ms median on an idle machine), with the server-side
-   part of it; and scrubbing, the walk paused and the time slider swept through the buffer
+   animation frame in which the preview plots' canvases show other pixels (target ≤ 150 ms median on an idle machine), split by the page's and the server's
+   clocks (typed → the server's editor, editor → plots sent, sent → repainted and the page's
+   frames in between; ``time_the_server``); and scrubbing, the walk paused and the time slider swept through the buffer
    (the last 60 s) at 60 seeks a second: frames the scene draws per second (target ≥ 20) and
    the buffer's memory; and where a frame goes (:func:`frame_split`: as drawn, without the
    robot, without the floor grid, without both) and the page's main thread (a Chromium trace:
@@ -122,6 +123,31 @@ CANVAS_WATCH_JS = """
 """
 
 
+SERVER_TIMES: dict[str, list[float]] = {"entry": [], "drawn": []}  # wall clock, s
+
+
+def time_the_server() -> None:
+    """This bench's own override (before the Dashboard binds its callbacks): the wall-clock times
+    a control change enters the editor and the plan view draws (plots sent), which the page's
+    clock (``performance.timeOrigin``, the same machine's) splits the browser latency with."""
+    from dcmviz.dashboard.editor import ConfigEditor
+    from dcmviz.dashboard.plan_view import PlanView
+
+    entry, update = ConfigEditor.on_field_change, PlanView.update
+
+    def on_field_change(self, *args, **kwargs):
+        SERVER_TIMES["entry"].append(time.time())
+        return entry(self, *args, **kwargs)
+
+    def drawn(self, snap):
+        drew = update(self, snap)
+        if drew:
+            SERVER_TIMES["drawn"].append(time.time())
+        return drew
+
+    ConfigEditor.on_field_change, PlanView.update = on_field_change, drawn
+
+
 def input_to_canvas_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndarray, np.ndarray]:
     """(browser ms, server ms) per change: from Δx typed in its number box (its input event) until
     the Fig. 1a canvases change in the page; the server's part from the editor's entry to the
@@ -138,10 +164,14 @@ def input_to_canvas_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndar
     box = box.first
     box.wait_for(state="visible", timeout=10_000)
     browser_ms, server_ms, misses = [], [], 0
+    split = []  # per change, ms: input → editor, editor → plots sent, sent → repainted; frames
+    origin = page.evaluate("performance.timeOrigin") / 1e3  # s, the page's clock's epoch
     lengths = two_step_lengths(dashboard)
     for i in range(n):
         value = str(lengths[(i + 1) % 2])
         seen = len(dashboard.preview.latency_s)
+        for times in SERVER_TIMES.values():
+            times.clear()
         page.evaluate("window.__dcmvizArm()")
         # armed before typing: viser's number box sends its value on the input event itself
         # (before issue 25's fix of this bench the clock started at the Enter pressed 300 ms
@@ -153,9 +183,16 @@ def input_to_canvas_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndar
         except Exception:  # noqa: BLE001 - counted, not fatal: the page missed or ignored it
             misses += 1
             continue
-        browser_ms.append(
-            page.evaluate("window.__dcmvizWatch.changed - window.__dcmvizWatch.input")
-        )
+        watch = page.evaluate("window.__dcmvizWatch")
+        browser_ms.append(watch["changed"] - watch["input"])
+        typed, repainted = origin + watch["input"] / 1e3, origin + watch["changed"] / 1e3
+        entry = SERVER_TIMES["entry"][0] if SERVER_TIMES["entry"] else None
+        sent = [t for t in SERVER_TIMES["drawn"] if entry is not None and t > entry]
+        if sent:
+            frames = origin + np.asarray(watch["frames"]) / 1e3
+            between = int(((frames > sent[0]) & (frames <= repainted)).sum())
+            split.append((1e3 * (entry - typed), 1e3 * (sent[0] - entry),
+                          1e3 * (repainted - sent[0]), between))  # fmt: skip
         deadline = time.time() + 5
         while len(dashboard.preview.latency_s) == seen and time.time() < deadline:
             time.sleep(0.01)
@@ -163,6 +200,13 @@ def input_to_canvas_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndar
         page.wait_for_timeout(400)
     if misses:
         print(f"  {misses} of {n} changes not seen repainted within 10 s")
+    if split:
+        a = np.median(np.array(split), axis=0)
+        print(
+            f"  each typed change, split (medians of {len(split)}, the page's and the server's clocks): typed → the "
+            f"server's editor {a[0]:.0f} ms, editor → plots sent {a[1]:.0f} ms, sent → repainted "
+            f"{a[2]:.0f} ms ({a[3]:.0f} of the page's animation frames)"
+        )
     frames = np.diff(page.evaluate("window.__dcmvizWatch.frames"))
     print(
         f"  the page's animation frames meanwhile: median {np.median(frames):.0f} ms apart "
@@ -464,6 +508,7 @@ def main() -> None:
 
     config = load_preset(args.preset)
     config = config.replace(gait={"n_steps": 20})  # the rest of the preset's gait kept
+    time_the_server()
     server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
     dashboard = Dashboard(server, config, presets_dir=ROOT / "presets")
     url = f"http://127.0.0.1:{server.get_port()}"
