@@ -36,7 +36,8 @@ def test_romeos_pull_falls_are_its_actuators(tmp_path, side: float) -> None:
     from the pull to the fall); the same robot with every torque limit x1.5 (``[actuators]
     torque_scale``: the whole-body QP's bounds and MuJoCo's motors alike, every derived number
     as before) holds 15, 17.5 and 20 %: issue 22's 20 % on Romeo is its actuators' to give
-    (measured with x1.5: falls at 22.5 % +y, 25 % -y)."""
+    (measured with x1.5: 18, 19, 19.5, 20.5 and 21 % held on both sides too; first falls at
+    22.5 % +y, 22 % -y)."""
     from pathlib import Path
 
     import dcmviz.robots
