@@ -259,11 +259,12 @@ def main_thread_split(browser, page, seconds: float = 3.0) -> None:
     software compositing only), and the GPU process's busy share (SwiftShader drawing)."""
     import tempfile
 
-    path = Path(tempfile.mkdtemp()) / "trace.json"
-    browser.start_tracing(page=page, path=str(path), categories=["toplevel", "gpu", "cc"])
-    time.sleep(seconds)
-    browser.stop_tracing()
-    events = json.loads(path.read_text())
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "trace.json"
+        browser.start_tracing(page=page, path=str(path), categories=["toplevel", "gpu", "cc"])
+        time.sleep(seconds)
+        browser.stop_tracing()
+        events = json.loads(path.read_text())
     events = events["traceEvents"] if isinstance(events, dict) else events
     threads = {(e["pid"], e["tid"]): e["args"]["name"] for e in events
                if e.get("ph") == "M" and e.get("name") == "thread_name"}  # fmt: skip

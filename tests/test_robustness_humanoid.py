@@ -38,12 +38,10 @@ def test_romeos_pull_falls_are_its_actuators(tmp_path, side: float) -> None:
     as before) holds 15, 17.5 and 20 %: issue 22's 20 % on Romeo is its actuators' to give
     (measured with x1.5: 18, 19, 19.5, 20.5 and 21 % held on both sides too; first falls at
     22.5 % +y, 22 % -y)."""
-    from pathlib import Path
+    from dcmviz.robots.file import builtin_path
 
-    import dcmviz.robots
-
-    builtin = Path(dcmviz.robots.__file__).parent / "data" / "romeo.toml"
-    text = builtin.read_text().replace('name = "romeo"', 'name = "romeo_x1_5"')
+    text = builtin_path("romeo").read_text(encoding="utf-8")
+    text = text.replace('name = "romeo"', 'name = "romeo_x1_5"')
     path = tmp_path / "romeo_x1_5.toml"
     path.write_text(text + "\n[actuators]\ntorque_scale = 1.5\n")
     assert not survives_pull("romeo", 15.0, side)
