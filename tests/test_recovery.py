@@ -262,3 +262,41 @@ def test_timing_choice_is_the_same_with_the_observers_shift(strategy_name: str) 
         chosen.append((strategy._timing_target.copy(), retimed.preview.durations.copy()))
     np.testing.assert_allclose(chosen[1][0], chosen[0][0], atol=1e-12)
     np.testing.assert_allclose(chosen[1][1], chosen[0][1], atol=1e-12)
+
+
+@pytest.mark.parametrize("order", [1, 3, 5])
+def test_the_cops_credit_in_double_support_is_the_whole_sole_about_the_nominal_vrp(order) -> None:
+    """MultiStep.capacity while an undisturbed G1 walks (6 cm wide soles, where a few mm count):
+    in every double support the box the CoP is credited with follows the nominal VRP along its
+    own S-curve, so at every tick it is the sole's full box (less the margin) about that VRP,
+    times 1 − e^{−τ/b}, on both sides.  Moved linearly in time instead, the box lagged the VRP
+    by a third of a phase in mid-transfer and the credit on one side fell to 0 (a CoP shortfall
+    from nothing)."""
+    from dcmviz.recovery import multi_step
+
+    spec = load_robot("g1").spec
+    config = Config().replace(
+        robot={"model": "g1"},
+        sim={"backend": "lip"},
+        dcm={"order": order, "b": spec.b_nominal_s},
+        gait={"step_length": 0.15, "step_width": round(spec.foot_spacing_m, 3), "n_steps": 6},
+        control={"recovery": "multi_step", "observer": False},
+    )
+    s = Session(config, backend="lip")
+    g = 1.0 - np.exp(-multi_step.CAPACITY_TIME_CONSTANTS)
+    half = 0.5 * np.array([spec.foot_length_m, spec.foot_width_m])
+    margin = np.array([multi_step.capacity_margin(spec.foot_length_m),
+                       multi_step.capacity_margin(spec.foot_width_m)])  # fmt: skip
+    want = g * (half - margin)  # the yaw is 0: the box's axes are the world's
+    seen = 0
+    while s.t < s.plan.duration - 0.01:
+        s.step()
+        walk, strategy = s.walker.walk, s.walker.strategy
+        plan = walk.plan
+        if plan.contact(s.t).kind != "ds":
+            continue
+        cap = strategy.capacity(walk, plan, s.t, s.t - plan.t0)
+        np.testing.assert_allclose(cap.hi, want, atol=1e-6, err_msg=f"t = {s.t:.3f}")
+        np.testing.assert_allclose(cap.lo, -want, atol=1e-6, err_msg=f"t = {s.t:.3f}")
+        seen += 1
+    assert seen * s.backend.control_dt > 0.9  # the double supports of the walk were read
