@@ -99,6 +99,34 @@ def test_with_step_moves_only_that_footsteps_waypoints():
     np.testing.assert_allclose(moved.preview.dcm(t), expected, atol=1e-12)
 
 
+@pytest.mark.parametrize("order", [0, 3, 5])
+def test_with_step_equals_the_plan_rebuilt_with_that_footstep_moved(order):
+    """Step adjustment moves footstep k's waypoints by S_adj (eq. 29): the horizontal waypoints
+    of plan.with_step(k) are those of the plan built afresh with footstep k moved, for every
+    footstep — the penultimate one included, whose stance foot carries half of the final
+    standing point (before, an adjusted penultimate footstep left the final standing DCM where
+    the nominal feet would have been).  Not compared: the start's continuity waypoint w2 (D2,
+    solved from the whole plan when it is built; a walk under way keeps it) and heights (a
+    walk keeps its planned VRP heights)."""
+    spec = load_robot("talos").spec
+    plan = plan_from_config(Config().replace(dcm={"order": order}), spec=spec)
+    delta = np.array([0.03, -0.05, 0.0])
+    keep = np.r_[0, 2 : len(plan.preview.waypoints)]  # all but w2
+    for k in range(len(plan.steps)):
+        moved = plan.with_step(k, plan.steps[k].position + delta)
+        steps = list(plan.steps)
+        steps[k] = steps[k].moved(steps[k].position + delta)
+        rebuilt = build_plan(
+            plan.start_feet, tuple(steps), plan.timing, plan.b, plan.order, t0=plan.t0, spec=spec
+        )
+        np.testing.assert_allclose(
+            moved.preview.waypoints[keep, :2],
+            rebuilt.preview.waypoints[keep, :2],
+            atol=1e-12,
+            err_msg=f"footstep {k}",
+        )
+
+
 def test_continuous_horizon_and_transfer_plan():
     g = config_from_dict({"gait": {"mode": "continuous"}}).gait
     feet = {

@@ -250,6 +250,14 @@ class GaitPlan:
         )
 
 
+def _last_of_side(steps, k: int, side: str) -> int:
+    """Index of the last footstep of ``side`` before footstep k, -1 if there is none."""
+    for j in range(k - 1, -1, -1):
+        if steps[j].side == side:
+            return j
+    return -1
+
+
 def _next_same_side(steps: tuple[Footstep, ...], k: int) -> int:
     for j in range(k + 1, len(steps)):
         if steps[j].side == steps[k].side:
@@ -347,6 +355,12 @@ def build_plan(
             wps.append(0.5 * (stance.position + step.position) + step_dz[k])  # stop: between feet
             add_phase("stop", k, timing.t_stop)
             weights[k][len(wps) - 1] = 0.5
+            # ... and the footstep the stance foot stands on (if it is one) moves it by half too:
+            # without it an adjusted penultimate footstep left the final standing DCM where the
+            # nominal feet would have been (a G1 stood with it on a sole's corner and fell)
+            j = _last_of_side(steps, k, stance.side)
+            if j >= 0:
+                weights[j][len(wps) - 1] = 0.5
         # the stance waypoint of the next ss belongs to this footstep as well
         if k + 1 < n:
             weights[k][len(wps)] = 1.0
