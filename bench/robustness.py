@@ -87,6 +87,10 @@ PUSH_DURATION_S = 13.5  # the last push ends by 8.85 s; the walk ends at 12.8 s
 PULL_DURATION_S = 14.0  # as presets/tug_of_war.toml: walking ends at 12.8 s, then standing
 DEFAULT_SCALES = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0)
 DEFAULT_LEVELS = (5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0)  # % of m g
+# --repeats: repeat k of a rollout has its push or pull × (1 + k·REPEAT_STEP), far below anything
+# physical; next to a first fall the outcome can still change (the walk is chaotic there), and a
+# cell that does reads "k/N survived" instead of one outcome that another machine may not repeat
+REPEAT_STEP = 1e-6
 
 
 def walking_config(
@@ -156,6 +160,7 @@ class Job:
     config: Config
     duration: float
     gains: tuple[tuple[str, float], ...] = ()
+    repeat: int = 0  # k of --repeats: the load × (1 + k·REPEAT_STEP)
 
 
 def _with_gains(gains: tuple[tuple[str, float], ...]) -> None:
@@ -256,6 +261,7 @@ def rollout(job: Job) -> dict[str, Any]:
         "start_s": float(min(p.start for p in job.config.pushes)),  # the first push's
         "fell": bool(metrics.fell),
         "fall_time_s": metrics.fall_time_s,
+        "repeat": job.repeat,
         "steps_completed": int(session.steps_completed),
         "max_dcm_error_m": float(metrics.max_dcm_error_m),
         "torque_limits": limits,
@@ -327,13 +333,17 @@ class _Serial:
 
 
 def summarise(results: list[dict[str, Any]], levels: list[float]) -> dict[str, Any]:
-    """Per row: survived levels, first fall, holes (falls below a survived level)."""
-    rows: dict[str, dict[str, Any]] = {}
+    """Per row: survived levels, first fall, holes (falls below a survived level).  With
+    repeats (--repeats) a level counts as survived only if every repeat survived and as a fall
+    if any fell (``survived_share``: the share that survived; ``fall_time_s``: the earliest)."""
+    rows: dict[str, dict[float, list[dict[str, Any]]]] = {}
     for r in results:
-        rows.setdefault(r["row"], {})[r["level"]] = r
+        rows.setdefault(r["row"], {}).setdefault(r["level"], []).append(r)
     out = {}
     for row, by_level in rows.items():
-        fell = {lv: by_level[lv]["fell"] for lv in levels if lv in by_level}
+        runs = {lv: by_level[lv] for lv in levels if lv in by_level}
+        share = {lv: sum(not r["fell"] for r in rs) / len(rs) for lv, rs in runs.items()}
+        fell = {lv: share[lv] < 1.0 for lv in runs}
         survived = [lv for lv, f in fell.items() if not f]
         falls = [lv for lv, f in fell.items() if f]
         highest = max(survived) if survived else None
@@ -343,7 +353,12 @@ def summarise(results: list[dict[str, Any]], levels: list[float]) -> dict[str, A
             "highest_survived": highest,
             "holes": holes,
             "fell": {str(k): v for k, v in fell.items()},
-            "fall_time_s": {str(lv): by_level[lv]["fall_time_s"] for lv in fell},
+            "fall_time_s": {
+                str(lv): min((r["fall_time_s"] for r in rs if r["fell"]), default=None)
+                for lv, rs in runs.items()
+            },  # fmt: skip
+            "survived_share": {str(lv): share[lv] for lv in runs},
+            "repeats": {str(lv): len(rs) for lv, rs in runs.items()},
         }
     return out
 
@@ -355,8 +370,11 @@ def table(title: str, unit: str, summary: dict[str, Any], levels: list[float]) -
         cells = []
         for lv in levels:
             f = s["fell"].get(str(lv))
+            share, n = s.get("survived_share", {}).get(str(lv)), s.get("repeats", {}).get(str(lv))
             if f is None:
                 cells.append(f"{'':>7}")
+            elif f and share and n:  # some repeats survived, some fell
+                cells.append(f"{f'{round(share * n)}/{n}':>7}")
             elif f:
                 cells.append(f"{'F' + format(s['fall_time_s'][str(lv)], '.1f'):>7}")
             else:
@@ -435,8 +453,13 @@ CEILING_ROWS = (
 
 
 def survived_counts(results: list[dict[str, Any]], scales: list[float]) -> list[int]:
-    """Per scale, how many push rollouts (one per start time) were survived."""
-    return [sum(1 for r in results if r["level"] == sc and not r["fell"]) for sc in scales]
+    """Per scale, how many push rollouts (one per start time) were survived; with --repeats a
+    start counts once, as survived only if every repeat survived."""
+    starts: dict[tuple, bool] = {}
+    for r in results:
+        key = (r.get("row", id(r)), r["level"])
+        starts[key] = starts.get(key, True) and not r["fell"]
+    return [sum(1 for (_, lv), ok in starts.items() if lv == sc and ok) for sc in scales]
 
 
 def ceiling_verdicts(scales: list[float], starts: int, counts: dict[str, list[int]]) -> list[str]:
@@ -501,6 +524,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="with MuJoCo: the pushes also on the point mass with the robot's numbers, at "
                         "its CoM and with the torso lever, side by side with the humanoid")  # fmt: skip
     p.add_argument("--no-observer", action="store_true", help="control.observer = false")
+    p.add_argument("--repeats", type=int, default=1,
+                   help="rollouts per cell, the load x (1 + k 1e-6): cells next to a first fall "
+                        "read 'k/N survived' where the walk is chaotic")  # fmt: skip
     p.add_argument("--only", choices=("push", "pull"))
     p.add_argument("--set", action="append", default=[], dest="overrides",
                    metavar="section.key=value", help="extra preset override")  # fmt: skip
@@ -514,6 +540,8 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.lever and args.sim != "lip":
         p.error("--lever: only with --sim lip (the humanoid has its torso)")
+    if args.repeats < 1:
+        p.error(f"--repeats {args.repeats}: must be at least 1")
     if args.ceiling and (args.sim != "mujoco" or args.only == "pull"):
         p.error("--ceiling: the humanoid's pushes against the point mass (--sim mujoco, pushes)")
     gains = tuple((k.strip(), float(v)) for k, v in (g.split("=", 1) for g in args.gain))
@@ -539,16 +567,19 @@ def main(argv: list[str] | None = None) -> int:
         for kind, walk, f, g in runs:
             for off in offsets:
                 for sc in args.scales:
-                    cfg = push_config(walk, mass, sc, PUSH_FIRST_S + off, f)
-                    jobs.append(Job(kind, f"start {PUSH_FIRST_S + off:.2f}s", sc, cfg,
-                                    PUSH_DURATION_S, g))  # fmt: skip
+                    for k in range(args.repeats):
+                        cfg = push_config(walk, mass, sc, PUSH_FIRST_S + off,
+                                          f * (1.0 + k * REPEAT_STEP))  # fmt: skip
+                        jobs.append(Job(kind, f"start {PUSH_FIRST_S + off:.2f}s", sc, cfg,
+                                        PUSH_DURATION_S, g, k))  # fmt: skip
     if args.only in (None, "pull"):
         for side in sides:
             sign = -1.0 if side.startswith("-") else 1.0
             for lv in args.levels:
-                cfg = pull_config(base, mass, lv, sign, factor)
-                jobs.append(Job("pull", f"pull {'+y' if sign > 0 else '-y'}", lv, cfg,
-                                PULL_DURATION_S, gains))  # fmt: skip
+                for k in range(args.repeats):
+                    cfg = pull_config(base, mass, lv, sign, factor * (1.0 + k * REPEAT_STEP))
+                    jobs.append(Job("pull", f"pull {'+y' if sign > 0 else '-y'}", lv, cfg,
+                                    PULL_DURATION_S, gains, k))  # fmt: skip
     g = base.gait
     print(
         f"{args.robot} ({base.sim.backend}): {mass:.2f} kg; gait {g.n_steps} steps of {g.step_length} m, width "
@@ -562,11 +593,12 @@ def main(argv: list[str] | None = None) -> int:
     results = []
     with ProcessPoolExecutor(max_workers=args.jobs) if args.jobs > 1 else _Serial() as pool:
         # one start's forces in one chunk: the walk to the push is shared (_session)
-        chunk = max(1, len(args.scales)) if args.only != "pull" else 1
+        chunk = max(1, len(args.scales) * args.repeats) if args.only != "pull" else 1
         for r in pool.map(rollout, jobs, chunksize=chunk):  # one line per rollout as it ends
             results.append(r)
             fell = f"fell at {r['fall_time_s']:.2f} s" if r["fell"] else "survived"
-            print(f"  {r['kind']} {r['row']} {r['level']:g}: {r['force_n']:.1f} N, {fell}",
+            again = f" (repeat {r['repeat']})" if r["repeat"] else ""
+            print(f"  {r['kind']} {r['row']} {r['level']:g}{again}: {r['force_n']:.1f} N, {fell}",
                   flush=True)  # fmt: skip
     wall = time.perf_counter() - t0
     out: dict[str, Any] = {
@@ -579,6 +611,8 @@ def main(argv: list[str] | None = None) -> int:
         "observer": base.control.observer,
         "gains": dict(gains),
         "lever_factor": factor,
+        "repeats": args.repeats,
+        "repeat_step": REPEAT_STEP,
         "wall_time_s": wall,
         "rollouts": results,
     }

@@ -259,3 +259,42 @@ def test_romeos_falls_under_twice_the_paper_push_come_at_its_torque_limits(scale
     names = fresh.backend.robot.model.joint_names
     for joint, share in limits["joints"]:
         assert share == pytest.approx(at[:, list(names).index(joint)].mean(), abs=1e-12)
+
+
+def test_repeats_make_a_chaotic_cell_read_k_of_n() -> None:
+    """``--repeats``: a level is survived only if every repeat survived and a fall if any fell;
+    the table shows a mixed cell as "k/N", the first fall and the holes count it as a fall, and
+    a start counts towards the ceiling's survived starts only if all its repeats survived."""
+    rb = robustness_bench()
+
+    def run(level: float, fell: bool, t: float | None = None) -> dict:
+        return {"row": "start 4.08s", "level": level, "fell": fell, "fall_time_s": t}
+
+    results = [run(1.0, False), run(1.0, False), run(1.5, True, 13.3), run(1.5, False),
+               run(2.0, False), run(2.0, False), run(2.5, True, 9.1), run(2.5, True, 8.7)]  # fmt: skip
+    s = rb.summarise(results, [1.0, 1.5, 2.0, 2.5])["start 4.08s"]
+    assert s["survived_share"] == {"1.0": 1.0, "1.5": 0.5, "2.0": 1.0, "2.5": 0.0}
+    assert s["first_fall"] == 1.5 and s["highest_survived"] == 2.0 and s["holes"] == [1.5]
+    assert s["fall_time_s"]["2.5"] == 8.7  # the earliest
+    row = rb.table("push scale", "x", {"start 4.08s": s}, [1.0, 1.5, 2.0, 2.5]).splitlines()[2]
+    assert row.split()[2:6] == ["ok", "1/2", "ok", "F8.7"]
+    assert rb.survived_counts(results, [1.0, 1.5, 2.0, 2.5]) == [1, 0, 1, 0]
+
+
+def test_repeat_k_scales_the_load_by_one_plus_k_steps(tmp_path) -> None:
+    """Each repeat's push is the paper's (25 N on 76 kg, scaled by mass and scale) × (1 + k·1e-6),
+    on the point mass; --repeats 0 is refused."""
+    rb = robustness_bench()
+    out = tmp_path / "r.json"
+    rb.main(["--robot", "g1", "--sim", "lip", "--only", "push", "--scales", "1",
+             "--starts", "1", "--repeats", "3", "--json", str(out)])  # fmt: skip
+    import json
+
+    data = json.loads(out.read_text())
+    paper = 25.0 * data["mass_kg"] / 76.0
+    assert [r["repeat"] for r in data["rollouts"]] == [0, 1, 2]
+    for r in data["rollouts"]:
+        assert r["force_n"] == pytest.approx(paper * (1.0 + 1e-6 * r["repeat"]), rel=1e-12)
+    assert data["push"]["rows"]["start 2.50s"]["repeats"] == {"1.0": 3}
+    with pytest.raises(SystemExit):
+        rb.main(["--robot", "g1", "--sim", "lip", "--repeats", "0"])
