@@ -370,10 +370,10 @@ def table(title: str, unit: str, summary: dict[str, Any], levels: list[float]) -
         cells = []
         for lv in levels:
             f = s["fell"].get(str(lv))
-            share, n = s.get("survived_share", {}).get(str(lv)), s.get("repeats", {}).get(str(lv))
             if f is None:
                 cells.append(f"{'':>7}")
-            elif f and share and n:  # some repeats survived, some fell
+            elif f and s["survived_share"][str(lv)]:  # some repeats survived, some fell
+                share, n = s["survived_share"][str(lv)], s["repeats"][str(lv)]
                 cells.append(f"{f'{round(share * n)}/{n}':>7}")
             elif f:
                 cells.append(f"{'F' + format(s['fall_time_s'][str(lv)], '.1f'):>7}")

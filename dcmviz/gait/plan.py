@@ -250,14 +250,6 @@ class GaitPlan:
         )
 
 
-def _last_of_side(steps, k: int, side: str) -> int:
-    """Index of the last footstep of ``side`` before footstep k, -1 if there is none."""
-    for j in range(k - 1, -1, -1):
-        if steps[j].side == side:
-            return j
-    return -1
-
-
 def _next_same_side(steps: tuple[Footstep, ...], k: int) -> int:
     for j in range(k + 1, len(steps)):
         if steps[j].side == steps[k].side:
@@ -340,6 +332,9 @@ def build_plan(
 
     liftoff: list[Footstep] = []
     n = len(steps)
+    last = {
+        side: -1 for side in feet
+    }  # per side: the footstep its foot stands on (-1: a start foot)
     for k, step in enumerate(steps):
         liftoff.append(feet[step.side])
         stance = feet[OTHER[step.side]]
@@ -347,6 +342,7 @@ def build_plan(
         wps.append(stance.position + step_dz[k])
         add_phase("ss", k, timing.t_ss)
         feet[step.side] = step
+        last[step.side] = k
         if k < n - 1:
             wps.append(step.position + step_dz[k])  # ds_k: onto the new foot
             add_phase("ds", k, timing.t_ds)
@@ -358,9 +354,8 @@ def build_plan(
             # ... and the footstep the stance foot stands on (if it is one) moves it by half too:
             # without it an adjusted penultimate footstep left the final standing DCM where the
             # nominal feet would have been (a G1 stood with it on a sole's corner and fell)
-            j = _last_of_side(steps, k, stance.side)
-            if j >= 0:
-                weights[j][len(wps) - 1] = 0.5
+            if last[stance.side] >= 0:
+                weights[last[stance.side]][len(wps) - 1] = 0.5
         # the stance waypoint of the next ss belongs to this footstep as well
         if k + 1 < n:
             weights[k][len(wps)] = 1.0

@@ -42,9 +42,8 @@ class MultiStep(RecoveryStrategy):
     def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)
         self.last_slack = 0.0  # m, the recovery QP's CoP shortfall at the last tick
-        # the present transfer phase's VRP at its start and its travel (_transfer_progress)
-        self._transfer_key: tuple | None = None
-        self._transfer: tuple = ()
+        # (preview, phase, VRP at the phase's start, its travel, |travel|²): _transfer_progress
+        self._transfer: tuple | None = None
 
     def adjust(
         self, walk: Walk, t: float, local: float, xi_error: np.ndarray, max_adjustment: float
@@ -152,14 +151,13 @@ class MultiStep(RecoveryStrategy):
         time's share was, so the capacity stays continuous at every lift-off and touchdown."""
         preview = plan.preview
         T = float(preview.durations[contact.phase])
-        cached = self._transfer_key
+        cached = self._transfer
         if cached is None or cached[0] is not preview or cached[1] != contact.phase:
             start = local - contact.t_phase
             v0 = preview.vrp(start)[:2]
             d = preview.vrp(min(start + T, plan.duration - 1e-12))[:2] - v0
-            self._transfer_key = (preview, contact.phase)
-            self._transfer = (v0, d, float(d @ d))
-        v0, d, dd = self._transfer
+            cached = self._transfer = (preview, contact.phase, v0, d, float(d @ d))
+        _, _, v0, d, dd = cached
         if dd < 1e-8:  # the VRP hardly moves in this phase: the time's share
             return min(max(contact.t_phase / T, 0.0), 1.0) if T > 0.0 else 1.0
         return min(max(float((v - v0) @ d) / dd, 0.0), 1.0)
