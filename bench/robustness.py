@@ -32,7 +32,10 @@ com).  It answers "it falls on my robot" with where to look.
 
 Per start time (push) and per side (pull) it prints which levels were survived, the first
 fall, and the holes: levels that fell although a higher level of the same row was survived
-(survival should be monotone in the force).  With MuJoCo it also walks the gait once unpushed
+(survival should be monotone in the force).  Under the push table, per start, the scale beyond
+which no footsteps save the walk (``push_bounds``, JSON ``push.bounds``: with the torso's moment
+at the feet or taken by the trunk; for legs that reach across, also with the feet kept apart),
+and per scale at how many starts it lies beyond: a fall there is physics, not a controller.  With MuJoCo it also walks the gait once unpushed
 and names the joints nearest their torque limits in single support (``torque_headroom``: a
 robot whose knees are at their limit walking has none left for a push).  After the pull table
 it prints how hard the legs can lean against a pull on one foot (``lean_bounds``, statics:
@@ -499,6 +502,73 @@ def ceiling_verdicts(scales: list[float], starts: int, counts: dict[str, list[in
     return lines
 
 
+BOUND_KINDS = (  # key, crossing, moment_at_feet: what each of push_bounds' numbers assumes
+    ("torso", True, True),  # any footsteps; the torso push's moment taken by the feet
+    ("com", True, False),  # ... taken as angular momentum (the point mass pushed at its CoM)
+    ("uncrossed_torso", False, True),  # the feet kept the minimum step width apart
+    ("uncrossed_com", False, False),
+)
+
+
+def push_bounds(config: Config, start: float) -> dict[str, Any]:
+    """What the paper's push pair starting at ``start`` can be at most, in its scale (units of
+    PAPER_FORCE_N m / PAPER_MASS_KG), for each push (``first``: +y at ``start``, ``second``: −y
+    PUSH_GAP_S later) and over both (the smaller): the force beyond which no footsteps save the
+    walk (:func:`dcmviz.sweep.bounds.footstep_bound_at`: the CoP on the pushed sole's outer edge,
+    the other foot down as early as it may, as far across as the legs reach), with the torso's
+    moment at the feet (``torso``) or taken by the trunk (``com``: the point mass at its CoM),
+    and with the feet kept the minimum step width apart (``uncrossed_*``: every strategy but
+    ``crossover``).  None where no bound applies (the pushed foot swings or may still lift).  ξ
+    is read off the nominal plan: the second push's bound assumes the walk is back on it."""
+    from dcmviz.sweep.bounds import footstep_bound_at
+
+    unit = PAPER_FORCE_N * load_robot(config.robot.model).spec.mass_kg / PAPER_MASS_KG * PUSH_S
+    out: dict[str, Any] = {}
+    for name, t, angle in (("first", start, np.pi / 2), ("second", start + PUSH_GAP_S, -np.pi / 2)):
+        out[name] = {}
+        for key, crossing, at_feet in BOUND_KINDS:
+            j = footstep_bound_at(config, t, PUSH_S, angle, backend="mujoco",
+                                  moment_at_feet=at_feet, crossing=crossing)  # fmt: skip
+            out[name][key] = None if j is None else j / unit
+    for key, _, _ in BOUND_KINDS:
+        values = [out[n][key] for n in ("first", "second") if out[n][key] is not None]
+        out[key] = min(values) if values else None
+    return out
+
+
+def bound_lines(rows: list[str], bounds: list[dict[str, Any]], scales: list[float]) -> list[str]:
+    """The push table's bounds, one line per start (the crossed ones where the legs can cross),
+    then per scale the starts it lies beyond."""
+    crossing = any(b["torso"] != b["uncrossed_torso"] for b in bounds)
+
+    def cell(x: float | None) -> str:
+        return "-" if x is None else f"{x:.2f}x"
+
+    def beyond(key: str, sc: float) -> int:
+        return sum(1 for b in bounds if b[key] is not None and b[key] < sc)
+
+    lines = []
+    for row, b in zip(rows, bounds, strict=True):
+        text = f"  {row}: {cell(b['torso'])} / {cell(b['com'])}"
+        if crossing:
+            text += f"; uncrossed {cell(b['uncrossed_torso'])} / {cell(b['uncrossed_com'])}"
+        lines.append(text)
+    for sc in scales:
+        keys = (
+            ("torso", "com", "uncrossed_torso", "uncrossed_com") if crossing else ("torso", "com")
+        )
+        n = {k: beyond(k, sc) for k in keys}
+        if not any(n.values()):
+            continue
+        text = (f"  {sc:g}x is beyond every footstep at {n['torso']} of {len(rows)} starts with "
+                f"the torso's moment at the feet, at {n['com']} even with it taken by the trunk")  # fmt: skip
+        if crossing:
+            text += (f"; without crossing the legs at {n['uncrossed_torso']} and "
+                     f"{n['uncrossed_com']}")  # fmt: skip
+        lines.append(text)
+    return lines
+
+
 def floats(text: str) -> list[float]:
     return [float(x) for x in text.split(",") if x.strip()]
 
@@ -625,6 +695,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\npush ±25 N × 1 s × m/76 kg × scale (F{PAPER_FORCE_N * mass / PAPER_MASS_KG:.1f}"
               f" N per unit scale); F<t>: fell at t s")  # fmt: skip
         print(table("push scale", unit_push, s, args.scales))
+        rows = [f"start {PUSH_FIRST_S + off:.2f}s" for off in offsets]
+        pbounds = [push_bounds(base, PUSH_FIRST_S + off) for off in offsets]
+        out["push"]["bounds"] = [{"row": r, **b} for r, b in zip(rows, pbounds, strict=True)]
+        print("  beyond every footstep, in the push's scale (torso's moment at the feet / taken by"
+              " the trunk; the smaller of the two pushes; '-': the pushed foot can still step"
+              " out; dcmviz.sweep.bounds.footstep_bound_at):")  # fmt: skip
+        print("\n".join(bound_lines(rows, pbounds, args.scales)))
         late = late_falls(pr)
         out["push"]["late_falls"] = late
         for x in late:

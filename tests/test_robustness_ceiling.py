@@ -298,3 +298,32 @@ def test_repeat_k_scales_the_load_by_one_plus_k_steps(tmp_path) -> None:
     assert data["push"]["rows"]["start 2.50s"]["repeats"] == {"1.0": 3}
     with pytest.raises(SystemExit):
         rb.main(["--robot", "g1", "--sim", "lip", "--repeats", "0"])
+
+
+def test_the_bound_lines_count_the_starts_each_scale_lies_beyond() -> None:
+    """The push table's bounds (synthetic, in the push's scale): one line per start ('-' where
+    none applies), then per scale at how many starts it lies beyond them; the uncrossed columns
+    only for legs that reach further than the feet kept apart."""
+    rb = robustness_bench()
+
+    def row(torso, com, uncrossed_torso, uncrossed_com):
+        return {"torso": torso, "com": com, "uncrossed_torso": uncrossed_torso,
+                "uncrossed_com": uncrossed_com}  # fmt: skip
+
+    rows = ["start 2.50s", "start 3.62s", "start 3.40s"]
+    crossing = [
+        row(2.34, 3.32, 1.47, 2.09),
+        row(1.84, 2.61, 1.39, 1.97),
+        row(None, None, None, None),
+    ]
+    lines = rb.bound_lines(rows, crossing, [1.0, 1.5, 2.0])
+    assert lines[0] == "  start 2.50s: 2.34x / 3.32x; uncrossed 1.47x / 2.09x"
+    assert lines[2] == "  start 3.40s: - / -; uncrossed - / -"
+    assert len(lines) == 5  # 1x lies beyond none: no line
+    assert "1.5x is beyond every footstep at 0 of 3" in lines[3] and "uncrossed" not in lines[3]
+    assert "without crossing the legs at 2 and 0" in lines[3]
+    assert "2x is beyond every footstep at 1 of 3" in lines[4] and "at 0 even" in lines[4]
+    assert "without crossing the legs at 2 and 1" in lines[4]
+    apart = [row(2.2, 3.3, 2.2, 3.3), row(1.9, 2.7, 1.9, 2.7)]
+    lines = rb.bound_lines(rows[:2], apart, [2.0])
+    assert lines[0] == "  start 2.50s: 2.20x / 3.30x" and "without crossing" not in lines[2]

@@ -33,19 +33,31 @@ start, and no sooner than ``timing.MIN_SS_S`` after its lift-off); from then on 
 on that sole's outer edge.  The crossover bound (:func:`crossover_bound`) is the largest impulse
 after which ξ is still inside that edge when the push ends and the foot is down: the DCM a single
 crossed footstep captures, the CoP on the stance edge until it lands.
+
+Both hold for a push that is over before the other foot can land (the sweep's 0.2 s at mid
+single support).  A longer push (bench/robustness.py's, the paper's 1 s) outlasts that landing,
+and any time in the gait (``*_at``: from a global start time) includes double supports.  Then
+the bound beyond which no footsteps save the walk (:func:`footstep_bound_at`,
+:func:`footstep_impulse`) asks two things of ξ, with the CoP on the pushed sole's outer edge (the
+least ξ any CoP gives): to be past the other foot's reach when that foot can be down (so it never
+stands under ξ and the pushed foot, which may lift only then, stays down) and past the edge when
+the push ends (so it never comes back).  For a push over before that landing it is the
+stance-edge bound (tests/test_sweep_bounds.py).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from dcmviz import GRAVITY
 from dcmviz.config import Config
 from dcmviz.gait import plan_from_config
+from dcmviz.gait.plan import GaitPlan
 from dcmviz.robots import load_robot
-from dcmviz.robots.feet import SIDE_SIGN
+from dcmviz.robots.feet import OTHER, SIDE_SIGN, Footstep
 from dcmviz.sweep.search import push_window
 
 
@@ -94,6 +106,126 @@ def crossed_edge_impulse(
     return lo * duration_s
 
 
+def footstep_impulse(
+    edge_distance_m: float,
+    reach_m: float,
+    landing_s: float,
+    mass_kg: float,
+    b: float,
+    duration_s: float,
+    lever_m: float = 0.0,
+) -> float:
+    """Largest impulse (N·s) of a constant push held ``duration_s`` beyond which no footstep can
+    save the walk: the CoP on the pushed sole's outer edge, ``edge_distance_m`` beyond ξ_0,
+    until the other foot can be down (``landing_s`` after the push's start), and that foot's
+    sole reaching at most ``reach_m`` past the edge (< 0: it stays inside it).  Beyond it ξ is
+    past the other foot's reach when it can land (so the pushed foot cannot lift: ξ is over no
+    other sole) and past the edge when the push ends (so it never comes back): the larger of the
+    two forces at which ξ, with the CoP on the edge (the least ξ any CoP gives), just reaches
+    them.  ξ − (e − s) = e^{t/b} (ξ_0 − (e − s)) with s = (b² + h/g) F/m during the push,
+    ξ − e = e^{t/b} (ξ − e) after it."""
+    gain = b * b + lever_m / GRAVITY
+    d, T, tau = edge_distance_m, duration_s, landing_s
+    grow_T = math.exp(T / b)
+    shift_end = d * grow_T / (grow_T - 1.0)  # ξ(T) = e
+    if tau <= T:
+        grow = math.exp(tau / b)
+        if tau > 0.0:
+            shift_land = (reach_m + d * grow) / (grow - 1.0)
+        else:  # down at once: under ξ unless ξ is already past its reach
+            shift_land = math.inf if reach_m + d > 0.0 else -math.inf
+    else:
+        shift_land = (reach_m * math.exp(-(tau - T) / b) + d * grow_T) / (grow_T - 1.0)
+    shift = max(shift_end, shift_land, 0.0)
+    return shift * mass_kg / gain * duration_s
+
+
+@dataclass(frozen=True)
+class PushedFoot:
+    """The foot a push points towards, standing when the push starts, and what a bound reads off
+    the nominal plan there (all along ``outward``, the horizontal unit pointing away from the
+    other foot)."""
+
+    foot: Footstep
+    cos: float  # of the push's direction with ``outward`` (> 0)
+    xi0: float  # ξ_ref at the push's start (m, along outward)
+    centre: float  # the pushed sole's centre (m, along outward); its outer edge is half a width on
+    other_lift_s: float  # the other foot lifted (swinging) or may lift at the earliest (global s)
+
+
+def standing_foot(plan: GaitPlan, side: str, t: float) -> Footstep | None:
+    """Where the ``side`` foot stands at global time ``t`` in the nominal plan (the last of its
+    footsteps down by then, else where it started); None while it swings."""
+    for k in range(len(plan.steps) - 1, -1, -1):
+        if plan.steps[k].side != side:
+            continue
+        t_lift, t_touch = plan.swing_window(k)
+        if t_touch <= t:
+            return plan.steps[k]
+        if t_lift <= t:
+            return None
+    return plan.start_feet[side]
+
+
+def pushed_foot(
+    plan: GaitPlan, foot_width_m: float, start_s: float, angle_rad: float
+) -> PushedFoot | None:
+    """What a bound needs of a push at ``angle_rad`` starting at ``start_s`` (module docstring),
+    or None where no bound applies: the push has no part across the feet, the foot it points to
+    swings (its footstep can go out under ξ), or both feet stand and ξ lies over the other sole
+    (the pushed foot may lift at once and step out).  Otherwise the pushed foot can lift only
+    once the other foot stands under ξ, which :func:`footstep_impulse` asks of the push."""
+    direction = np.array([math.cos(angle_rad), math.sin(angle_rad)])
+    for side in SIDE_SIGN:
+        foot = standing_foot(plan, side, start_s)
+        if foot is None:  # this foot swings: a push towards it is its footstep's to catch
+            continue
+        outward = SIDE_SIGN[side] * np.array([-math.sin(foot.yaw), math.cos(foot.yaw)])
+        cos = float(outward @ direction)
+        if cos <= 1e-9:
+            continue
+        xi0 = float(outward @ plan.preview.dcm(start_s - plan.t0)[:2])
+        centre = float(outward @ foot.position[:2])
+        other = standing_foot(plan, OTHER[side], start_s)
+        if other is None:  # the other foot swings: it lifted at its footstep's lift-off
+            k = plan.next_modifiable_step(start_s)
+            lift = plan.swing_window(k)[0] if k is not None else start_s
+        else:
+            if xi0 <= float(outward @ other.position[:2]) + 0.5 * foot_width_m:
+                return None  # ξ over the other sole: the pushed foot may lift and step out
+            lift = start_s  # at the earliest
+        return PushedFoot(foot, cos, xi0, centre, lift)
+    return None
+
+
+def stance_edge_bound_at(
+    config: Config,
+    start_s: float,
+    duration_s: float,
+    angle_rad: float,
+    *,
+    backend: str = "lip",
+    body: str = "torso",
+    moment_at_feet: bool = True,
+) -> float | None:
+    """The stance-edge bound (N·s) of a push at ``angle_rad`` (0 = +x, counter-clockwise) held
+    ``duration_s`` from ``start_s`` (global s, any instant of the nominal plan): the CoP on the
+    pushed foot's outer edge from the push's start, ξ must still be inside that edge when the
+    push ends (:func:`edge_impulse`, from the plan's ξ_ref there; :func:`pushed_foot` says when
+    it applies, else None).  The point mass (``backend`` "lip") is pushed at its CoM; a humanoid
+    at ``body``, whose lever above the CoM counts unless ``moment_at_feet`` is False (the trunk
+    takes the push's moment as angular momentum)."""
+    plan = plan_from_config(config)
+    robot = load_robot(config.robot.model)
+    spec = robot.spec
+    pushed = pushed_foot(plan, spec.foot_width_m, start_s, angle_rad)
+    if pushed is None:
+        return None
+    lever = 0.0 if backend == "lip" or not moment_at_feet else robot.push_lever_m(body)
+    distance = pushed.centre + 0.5 * spec.foot_width_m - pushed.xi0
+    return edge_impulse(distance, spec.mass_kg, config.dcm.b, duration_s, lever) / pushed.cos
+
+
 def stance_edge_bound(
     config: Config,
     step: int,
@@ -105,25 +237,50 @@ def stance_edge_bound(
     body: str = "torso",
     moment_at_feet: bool = True,
 ) -> float | None:
-    """The bound (N·s) for a push at ``angle_rad`` (0 = +x, counter-clockwise) at ``phase`` of
-    step ``step``'s single support (1-based) of the nominal plan, from the plan's ξ_ref there;
-    None when the push has no component towards the stance foot.  The point mass (``backend``
-    "lip") is pushed at its CoM; a humanoid at ``body``, whose lever above the CoM counts unless
-    ``moment_at_feet`` is False (the trunk takes the push's moment as angular momentum)."""
-    plan = plan_from_config(config)
+    """:func:`stance_edge_bound_at` for a push at ``phase`` of step ``step``'s single support
+    (1-based) of the nominal plan: None when the push has no component towards the stance
+    foot."""
     start, _, _ = push_window(config, step, phase)
-    stance = plan.stance_for(step - 1)
+    return stance_edge_bound_at(
+        config, start, duration_s, angle_rad, backend=backend, body=body,
+        moment_at_feet=moment_at_feet,
+    )  # fmt: skip
+
+
+def crossover_bound_at(
+    config: Config,
+    start_s: float,
+    duration_s: float,
+    angle_rad: float,
+    *,
+    backend: str = "lip",
+    body: str = "torso",
+    moment_at_feet: bool = True,
+) -> float | None:
+    """The crossover bound (N·s, module docstring) of a push at ``angle_rad`` held
+    ``duration_s`` from ``start_s``: the other foot lands across the pushed one as far out as the
+    robot's crossover region allows, as early as the swing may (``timing.MIN_REMAINING_S`` from
+    the push's start and ``timing.MIN_SS_S`` after it lifted, or may lift at the earliest); None
+    where the stance-edge bound does not apply or without a crossover region."""
+    from dcmviz.gait import timing
+
+    plan = plan_from_config(config)
     robot = load_robot(config.robot.model)
-    spec = robot.spec
-    outward = SIDE_SIGN[stance.side] * np.array([-math.sin(stance.yaw), math.cos(stance.yaw)])
-    cos = float(outward @ np.array([math.cos(angle_rad), math.sin(angle_rad)]))
-    if cos <= 1e-9:
+    spec, region = robot.spec, robot.crossover
+    if not region.polygons:
         return None
-    xi0 = plan.preview.dcm(start - plan.t0)[:2]
-    edge = float(outward @ stance.position[:2]) + 0.5 * spec.foot_width_m
-    distance = edge - float(outward @ xi0)
+    pushed = pushed_foot(plan, spec.foot_width_m, start_s, angle_rad)
+    if pushed is None:
+        return None
+    # the lateral axis of the region points to the swinging foot's side: across is −lateral
+    farthest = max(-float(p[:, 1].min()) for p in region.polygons)
+    touchdown = max(timing.MIN_REMAINING_S, pushed.other_lift_s + timing.MIN_SS_S - start_s)
     lever = 0.0 if backend == "lip" or not moment_at_feet else robot.push_lever_m(body)
-    return edge_impulse(distance, spec.mass_kg, config.dcm.b, duration_s, lever) / cos
+    centre, half, xi0 = pushed.centre, 0.5 * spec.foot_width_m, pushed.xi0
+    return crossed_edge_impulse(
+        centre + half - xi0, centre + farthest + half - xi0, touchdown, spec.mass_kg,
+        config.dcm.b, duration_s, lever,
+    ) / pushed.cos  # fmt: skip
 
 
 def crossover_bound(
@@ -136,30 +293,58 @@ def crossover_bound(
     backend: str = "lip",
     body: str = "torso",
 ) -> float | None:
-    """The crossover bound (N·s, module docstring) for a push at ``angle_rad`` at ``phase`` of
-    step ``step``'s single support; None without a part towards the stance foot or without a
-    crossover region (a robot whose legs cannot cross within its reach)."""
+    """:func:`crossover_bound_at` for a push at ``phase`` of step ``step``'s single support;
+    None without a part towards the stance foot or without a crossover region (a robot whose
+    legs cannot cross within its reach)."""
+    start, _, _ = push_window(config, step, phase)
+    return crossover_bound_at(config, start, duration_s, angle_rad, backend=backend, body=body)
+
+
+def reach_across(robot) -> float:
+    """How far (m) the other foot's sole can reach past the pushed one's, laterally: the
+    crossover region's farthest crossing (0 for a region that only reaches the stance foot's
+    line, as the G1's), else −min_step_width (the feet keep that far apart)."""
+    region = robot.crossover
+    if region.polygons:
+        return max(-float(p[:, 1].min()) for p in region.polygons)
+    return -robot.spec.min_step_width_m
+
+
+def footstep_bound_at(
+    config: Config,
+    start_s: float,
+    duration_s: float,
+    angle_rad: float,
+    *,
+    backend: str = "lip",
+    body: str = "torso",
+    moment_at_feet: bool = True,
+    crossing: bool = True,
+) -> float | None:
+    """The bound (N·s) beyond which no footsteps save the walk from a push at ``angle_rad`` held
+    ``duration_s`` from ``start_s``, however long (:func:`footstep_impulse`): the CoP on the
+    pushed sole's outer edge, the other foot down as early as a swing may (no single support
+    shorter than ``timing.MIN_SS_S``, 0.35 s, the shortest any strategy plans: that long after it
+    lifted, or after the push's start in double support, at the earliest; and
+    ``timing.MIN_REMAINING_S`` from the push's start) as far across as the robot reaches (:func:`reach_across`; with ``crossing`` False the feet keep the robot's minimum step
+    width apart, as every strategy but ``crossover`` does).  For a push that ends before the other foot can land it is
+    the stance-edge bound; a long push (the paper's 1 s) lasts past that landing, and the bound
+    then also asks ξ to be past the landed foot's reach.  None where :func:`pushed_foot` says no
+    bound applies.  The point mass with its CMP inside the soles: angular momentum beyond the
+    push's own moment (``moment_at_feet`` False: the trunk takes that) is not counted."""
     from dcmviz.gait import timing
 
     plan = plan_from_config(config)
-    start, t_lift, _ = push_window(config, step, phase)
-    stance = plan.stance_for(step - 1)
     robot = load_robot(config.robot.model)
-    spec, region = robot.spec, robot.crossover
-    if not region.polygons:
+    spec = robot.spec
+    pushed = pushed_foot(plan, spec.foot_width_m, start_s, angle_rad)
+    if pushed is None:
         return None
-    outward = SIDE_SIGN[stance.side] * np.array([-math.sin(stance.yaw), math.cos(stance.yaw)])
-    cos = float(outward @ np.array([math.cos(angle_rad), math.sin(angle_rad)]))
-    if cos <= 1e-9:
-        return None
-    xi0 = float(outward @ plan.preview.dcm(start - plan.t0)[:2])
-    centre = float(outward @ stance.position[:2])
-    half = 0.5 * spec.foot_width_m
-    # the lateral axis of the region points to the swinging foot's side: across is −lateral
-    farthest = max(-float(p[:, 1].min()) for p in region.polygons)
-    touchdown = max(timing.MIN_REMAINING_S, t_lift + timing.MIN_SS_S - start)
-    lever = 0.0 if backend == "lip" else robot.push_lever_m(body)
-    return crossed_edge_impulse(
-        centre + half - xi0, centre + farthest + half - xi0, touchdown, spec.mass_kg,
-        config.dcm.b, duration_s, lever,
-    ) / cos  # fmt: skip
+    landing = max(timing.MIN_REMAINING_S, pushed.other_lift_s + timing.MIN_SS_S - start_s)
+    lever = 0.0 if backend == "lip" or not moment_at_feet else robot.push_lever_m(body)
+    distance = pushed.centre + 0.5 * spec.foot_width_m - pushed.xi0
+    reach = reach_across(robot) if crossing else -spec.min_step_width_m
+    return (
+        footstep_impulse(distance, reach, landing, spec.mass_kg, config.dcm.b, duration_s, lever)
+        / pushed.cos
+    )
