@@ -34,15 +34,15 @@ on that sole's outer edge.  The crossover bound (:func:`crossover_bound`) is the
 after which ξ is still inside that edge when the push ends and the foot is down: the DCM a single
 crossed footstep captures, the CoP on the stance edge until it lands.
 
-Both hold for a push that is over before the other foot can land (the sweep's 0.2 s at mid
-single support).  A longer push (bench/robustness.py's, the paper's 1 s) outlasts that landing,
-and any time in the gait (``*_at``: from a global start time) includes double supports.  Then
-the bound beyond which no footsteps save the walk (:func:`footstep_bound_at`,
-:func:`footstep_impulse`) asks two things of ξ, with the CoP on the pushed sole's outer edge (the
-least ξ any CoP gives): to be past the other foot's reach when that foot can be down (so it never
-stands under ξ and the pushed foot, which may lift only then, stays down) and past the edge when
-the push ends (so it never comes back).  For a push over before that landing it is the
-stance-edge bound (tests/test_sweep_bounds.py).
+Both assume the stance foot lifts only once the other foot holds ξ (a walker's rule: its single
+supports of at least ``timing.MIN_SS_S`` need it).  What no footsteps can do at all, for a push of
+any length at any time in the gait (``*_at``: from a global start time, double supports
+included), is :func:`footstep_bound_at` (:func:`footstep_impulse`): a lateral model that favours
+the walk wherever it simplifies (the CoP on the farthest edge any sole has reached, the feet
+stepping in turn as early and as far out as the robot reaches, the pushed foot lifting the
+instant the other is down whatever ξ does); beyond it no walk catches ξ.  It lies above the
+stance-edge bound (tests/test_sweep_bounds.py checks it against an integrated LIP and against
+walks that step later or shorter).
 """
 
 from __future__ import annotations
@@ -109,35 +109,66 @@ def crossed_edge_impulse(
 def footstep_impulse(
     edge_distance_m: float,
     reach_m: float,
+    step_out_m: float,
     landing_s: float,
+    swing_s: float,
     mass_kg: float,
     b: float,
     duration_s: float,
     lever_m: float = 0.0,
 ) -> float:
-    """Largest impulse (N·s) of a constant push held ``duration_s`` beyond which no footstep can
-    save the walk: the CoP on the pushed sole's outer edge, ``edge_distance_m`` beyond ξ_0,
-    until the other foot can be down (``landing_s`` after the push's start), and that foot's
-    sole reaching at most ``reach_m`` past the edge (< 0: it stays inside it).  Beyond it ξ is
-    past the other foot's reach when it can land (so the pushed foot cannot lift: ξ is over no
-    other sole) and past the edge when the push ends (so it never comes back): the larger of the
-    two forces at which ξ, with the CoP on the edge (the least ξ any CoP gives), just reaches
-    them.  ξ − (e − s) = e^{t/b} (ξ_0 − (e − s)) with s = (b² + h/g) F/m during the push,
-    ξ − e = e^{t/b} (ξ − e) after it."""
+    """Largest impulse (N·s) of a constant push held ``duration_s`` that footsteps may still
+    save (beyond it none do), on a lateral model that favours the walk wherever it simplifies:
+    the CoP on the outermost edge any sole has reached so far (even while that foot swings), the
+    pushed sole's ``edge_distance_m`` beyond ξ_0 at first; the other foot down ``landing_s`` after
+    the push's start with its sole's edge ``reach_m`` past the pushed one's (< 0: inside it),
+    then the feet in turn, each lifting the instant the other lands and down ``swing_s`` later,
+    the pushed side's ``step_out_m`` (the widest step) out from the other, the other's
+    ``reach_m`` past it.  Each landing as early and as far out as it can be raises that edge the
+    most at every instant, and ξ is the lower the farther out the CoP, so if this walk loses ξ
+    every walk does.  After the push, at each landing, ξ − edge = Δ grows to E Δ − a over the
+    next swing (E = e^{swing/b}, a the next landing's gain): ξ is lost iff Δ exceeds the fixed
+    point (E a₁ + a₂)/(E² − 1) of the next two (the chain repeats every two steps).  During the
+    push the CoP is moved by s = (b² + h/g) F/m (the lever's moment at the feet); bisection on F
+    (ξ grows with F)."""
     gain = b * b + lever_m / GRAVITY
-    d, T, tau = edge_distance_m, duration_s, landing_s
-    grow_T = math.exp(T / b)
-    shift_end = d * grow_T / (grow_T - 1.0)  # ξ(T) = e
-    if tau <= T:
-        grow = math.exp(tau / b)
-        if tau > 0.0:
-            shift_land = (reach_m + d * grow) / (grow - 1.0)
-        else:  # down at once: under ξ unless ξ is already past its reach
-            shift_land = math.inf if reach_m + d > 0.0 else -math.inf
-    else:
-        shift_land = (reach_m * math.exp(-(tau - T) / b) + d * grow_T) / (grow_T - 1.0)
-    shift = max(shift_end, shift_land, 0.0)
-    return shift * mass_kg / gain * duration_s
+    grow = math.exp(swing_s / b)
+
+    def landings():  # (time, the edge it reaches) in turn: the other foot, then the pushed one
+        t, pushed, other, k = landing_s, edge_distance_m, None, 0
+        while True:
+            if k % 2 == 0:
+                other = pushed + reach_m
+                yield t, other
+            else:
+                pushed = other + step_out_m
+                yield t, pushed
+            t, k = t + swing_s, k + 1
+
+    def lost(force: float) -> bool:
+        shift = gain * force / mass_kg
+        xi, t, cop = 0.0, 0.0, edge_distance_m
+        chain = landings()
+        for t_land, edge in chain:
+            for t_next in sorted({min(duration_s, t_land), t_land}):  # the push's end on the way
+                c = cop - (shift if t < duration_s else 0.0)
+                xi = c + math.exp((t_next - t) / b) * (xi - c)
+                t = t_next
+            cop = max(cop, edge)
+            if t_land >= duration_s:  # the push is over: capturable by the chain ahead?
+                (_, e1), (_, e2) = next(chain), next(chain)
+                a1 = max(e1 - cop, 0.0)
+                a2 = max(e2 - max(cop, e1), 0.0)
+                return xi - cop > (grow * a1 + a2) / (grow * grow - 1.0)
+        return True  # not reached: the chain is endless
+
+    lo, hi = 0.0, 1.0
+    while not lost(hi) and hi < 1e7:
+        hi *= 2.0
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if not lost(mid) else (lo, mid)
+    return lo * duration_s
 
 
 @dataclass(frozen=True)
@@ -173,8 +204,8 @@ def pushed_foot(
     """What a bound needs of a push at ``angle_rad`` starting at ``start_s`` (module docstring),
     or None where no bound applies: the push has no part across the feet, the foot it points to
     swings (its footstep can go out under ξ), or both feet stand and ξ lies over the other sole
-    (the pushed foot may lift at once and step out).  Otherwise the pushed foot can lift only
-    once the other foot stands under ξ, which :func:`footstep_impulse` asks of the push."""
+    (the pushed foot may lift at once and step out).  Otherwise the other foot has to land
+    before the pushed one may lift (:func:`footstep_impulse`'s walk)."""
     direction = np.array([math.cos(angle_rad), math.sin(angle_rad)])
     for side in SIDE_SIGN:
         foot = standing_foot(plan, side, start_s)
@@ -326,10 +357,10 @@ def footstep_bound_at(
     pushed sole's outer edge, the other foot down as early as a swing may (no single support
     shorter than ``timing.MIN_SS_S``, 0.35 s, the shortest any strategy plans: that long after it
     lifted, or after the push's start in double support, at the earliest; and
-    ``timing.MIN_REMAINING_S`` from the push's start) as far across as the robot reaches (:func:`reach_across`; with ``crossing`` False the feet keep the robot's minimum step
-    width apart, as every strategy but ``crossover`` does).  For a push that ends before the other foot can land it is
-    the stance-edge bound; a long push (the paper's 1 s) lasts past that landing, and the bound
-    then also asks ξ to be past the landed foot's reach.  None where :func:`pushed_foot` says no
+    ``timing.MIN_REMAINING_S`` from the push's start) as far across as the robot reaches
+    (:func:`reach_across`; with ``crossing`` False the feet keep the robot's minimum step width
+    apart, as every strategy but ``crossover`` does), then each foot in turn, the pushed side's
+    as wide as the robot steps (``max_step_width_m``).  None where :func:`pushed_foot` says no
     bound applies.  The point mass with its CMP inside the soles: angular momentum beyond the
     push's own moment (``moment_at_feet`` False: the trunk takes that) is not counted."""
     from dcmviz.gait import timing
@@ -344,7 +375,7 @@ def footstep_bound_at(
     lever = 0.0 if backend == "lip" or not moment_at_feet else robot.push_lever_m(body)
     distance = pushed.centre + 0.5 * spec.foot_width_m - pushed.xi0
     reach = reach_across(robot) if crossing else -spec.min_step_width_m
-    return (
-        footstep_impulse(distance, reach, landing, spec.mass_kg, config.dcm.b, duration_s, lever)
-        / pushed.cos
-    )
+    return footstep_impulse(
+        distance, reach, spec.max_step_width_m, landing, timing.MIN_SS_S, spec.mass_kg,
+        config.dcm.b, duration_s, lever,
+    ) / pushed.cos  # fmt: skip
