@@ -229,6 +229,19 @@ def pushed_foot(
     return None
 
 
+def _pushed(config: Config, start_s: float, angle_rad: float, backend: str, body: str,
+            moment_at_feet: bool):  # fmt: skip
+    """(robot, pushed foot, lever) of a push, or None where no bound applies: the common
+    part of the ``*_bound_at`` functions (the lever 0 for the point mass, or with the trunk
+    taking the push's moment)."""
+    robot = load_robot(config.robot.model)
+    pushed = pushed_foot(plan_from_config(config), robot.spec.foot_width_m, start_s, angle_rad)
+    if pushed is None:
+        return None
+    lever = 0.0 if backend == "lip" or not moment_at_feet else robot.push_lever_m(body)
+    return robot, pushed, lever
+
+
 def stance_edge_bound_at(
     config: Config,
     start_s: float,
@@ -246,13 +259,11 @@ def stance_edge_bound_at(
     it applies, else None).  The point mass (``backend`` "lip") is pushed at its CoM; a humanoid
     at ``body``, whose lever above the CoM counts unless ``moment_at_feet`` is False (the trunk
     takes the push's moment as angular momentum)."""
-    plan = plan_from_config(config)
-    robot = load_robot(config.robot.model)
-    spec = robot.spec
-    pushed = pushed_foot(plan, spec.foot_width_m, start_s, angle_rad)
-    if pushed is None:
+    found = _pushed(config, start_s, angle_rad, backend, body, moment_at_feet)
+    if found is None:
         return None
-    lever = 0.0 if backend == "lip" or not moment_at_feet else robot.push_lever_m(body)
+    robot, pushed, lever = found
+    spec = robot.spec
     distance = pushed.centre + 0.5 * spec.foot_width_m - pushed.xi0
     return edge_impulse(distance, spec.mass_kg, config.dcm.b, duration_s, lever) / pushed.cos
 
@@ -295,18 +306,14 @@ def crossover_bound_at(
     where the stance-edge bound does not apply or without a crossover region."""
     from dcmviz.gait import timing
 
-    plan = plan_from_config(config)
-    robot = load_robot(config.robot.model)
+    found = _pushed(config, start_s, angle_rad, backend, body, moment_at_feet)
+    if found is None or not found[0].crossover.polygons:
+        return None
+    robot, pushed, lever = found
     spec, region = robot.spec, robot.crossover
-    if not region.polygons:
-        return None
-    pushed = pushed_foot(plan, spec.foot_width_m, start_s, angle_rad)
-    if pushed is None:
-        return None
     # the lateral axis of the region points to the swinging foot's side: across is −lateral
     farthest = max(-float(p[:, 1].min()) for p in region.polygons)
     touchdown = max(timing.MIN_REMAINING_S, pushed.other_lift_s + timing.MIN_SS_S - start_s)
-    lever = 0.0 if backend == "lip" or not moment_at_feet else robot.push_lever_m(body)
     centre, half, xi0 = pushed.centre, 0.5 * spec.foot_width_m, pushed.xi0
     return crossed_edge_impulse(
         centre + half - xi0, centre + farthest + half - xi0, touchdown, spec.mass_kg,
@@ -365,14 +372,12 @@ def footstep_bound_at(
     push's own moment (``moment_at_feet`` False: the trunk takes that) is not counted."""
     from dcmviz.gait import timing
 
-    plan = plan_from_config(config)
-    robot = load_robot(config.robot.model)
-    spec = robot.spec
-    pushed = pushed_foot(plan, spec.foot_width_m, start_s, angle_rad)
-    if pushed is None:
+    found = _pushed(config, start_s, angle_rad, backend, body, moment_at_feet)
+    if found is None:
         return None
+    robot, pushed, lever = found
+    spec = robot.spec
     landing = max(timing.MIN_REMAINING_S, pushed.other_lift_s + timing.MIN_SS_S - start_s)
-    lever = 0.0 if backend == "lip" or not moment_at_feet else robot.push_lever_m(body)
     distance = pushed.centre + 0.5 * spec.foot_width_m - pushed.xi0
     reach = reach_across(robot) if crossing else -spec.min_step_width_m
     return footstep_impulse(
