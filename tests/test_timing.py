@@ -126,3 +126,39 @@ def test_retimed_plan_dcm_is_the_integrated_dcm_of_its_vrp() -> None:
     got = _integrate_dcm(p.preview.dcm(start), lambda s: p.preview.vrp(start + s), end - start)
     np.testing.assert_allclose(got, p.preview.dcm(end), atol=1e-7)
     assert np.linalg.norm(p.preview.dcm(end) - plan.preview.dcm(end)) > 1e-3  # it did change
+
+
+def test_a_swing_the_timing_ends_lands_where_the_foot_is() -> None:
+    """The point mass with the G1's numbers, multi_step_timing, the paper's push pair at 2× from
+    the double support before a left stance (bench/robustness.py): the strategy shortens the
+    right foot's swing while it goes, and the swing ends inside a re-timing, not at the walk's
+    clock.  Each footstep is committed where the foot was commanded on the tick before it landed
+    (the point mass's feet follow their commands exactly); the walker used to read the new
+    double support off the re-timed plan alone, command the foot for a tick to where it had
+    lifted off, and commit the footstep there (0.3 m behind the swing)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+    import robustness as rb
+
+    from dcmviz.session import Session
+
+    base = rb.walking_config("g1", sim="lip", overrides=['control.recovery="multi_step_timing"'])
+    mass = Session(base, backend="lip").mass
+    session = Session(rb.push_config(base, mass, 2.0, 3.625), backend="lip")
+    last: dict[str, np.ndarray] = {}
+    checked = shortened = 0
+    while session.t < 4.4 and not session.fell:
+        records = len(session.walker.walk.records)
+        command = session.step()
+        walk = session.walker.walk
+        if len(walk.records) > records:
+            record = walk.records[-1]
+            assert np.allclose(record.position[:2], last[record.side][:2], atol=1e-12)
+            checked += 1
+            t_lift, t_touch = walk.plan.swing_window(record.step)
+            shortened += t_touch - t_lift < base.gait.t_ss - 0.05
+        if command.swing_side is not None:
+            last[command.swing_side] = np.array(command.feet[command.swing_side].position)
+    assert checked >= 3 and shortened >= 1

@@ -160,7 +160,11 @@ class Walker:
             )
             if plan is not None:
                 walk.retime(t, plan)
-                contact = plan.contact(t)
+                # a re-timed swing may end (or a double support give way to a swing) now: commit
+                # the touchdown where the foot is, as the clock does.  Read off the plan alone,
+                # the foot was told to stand where it had lifted off for a tick, and the point
+                # mass put its footstep there (a G1 pushed at 2x stepped back 0.3 m)
+                contact, touched = walk.clock(t, state.feet, state.feet_yaw)
 
         preview = walk.plan.preview
         local = t - walk.plan.t0
