@@ -119,17 +119,14 @@ def chain(d, reach, out, landing, swing, T, impulse, lift_delays=None, shorten=N
     pushed, other = d, None
     t_land, out_gaps = landing, []
     for k in range(n):
-        f = lambda tt, yy, c=cop: np.array(  # noqa: E731
-            [yy[1], (yy[0] - c) / B**2 + (gain * F / M if tt < T else 0.0) / B**2]
-        )
-        steps = max(8, int((t_land - t) / 1e-3))
-        h = (t_land - t) / steps
-        for _ in range(steps):
-            k1 = f(t, y)
-            k2 = f(t + h / 2, y + h / 2 * k1)
-            k3 = f(t + h / 2, y + h / 2 * k2)
-            k4 = f(t + h, y + h * k3)
-            y, t = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4), t + h
+        for a, z in ((t, min(T, t_land)), (max(t, T), t_land)):  # pushed, then not
+            if z <= a:
+                continue
+            push = gain * F / M if a < T else 0.0
+            f = lambda yy, c=cop, p=push: np.array([yy[1], (yy[0] - c + p) / B**2])  # noqa: E731
+            steps = max(8, math.ceil((z - a) / 1e-3))
+            y = rk4(f, y, (z - a) / steps, steps)
+        t = t_land
         cut = 0.0 if shorten is None else shorten[k]
         if k % 2 == 0:
             other = pushed + reach - cut

@@ -136,13 +136,11 @@ def test_a_swing_the_timing_ends_lands_where_the_foot_is() -> None:
     (the point mass's feet follow their commands exactly); the walker used to read the new
     double support off the re-timed plan alone, command the foot for a tick to where it had
     lifted off, and commit the footstep there (0.3 m behind the swing)."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
-    import robustness as rb
+    from helpers import robustness_bench
 
     from dcmviz.session import Session
+
+    rb = robustness_bench()
 
     base = rb.walking_config("g1", sim="lip", overrides=['control.recovery="multi_step_timing"'])
     mass = Session(base, backend="lip").mass

@@ -54,7 +54,7 @@ import numpy as np
 
 from dcmviz import GRAVITY
 from dcmviz.config import Config
-from dcmviz.gait import plan_from_config
+from dcmviz.gait import plan_from_config, timing
 from dcmviz.gait.plan import GaitPlan
 from dcmviz.robots import load_robot
 from dcmviz.robots.feet import OTHER, SIDE_SIGN, Footstep
@@ -181,7 +181,10 @@ class PushedFoot:
     cos: float  # of the push's direction with ``outward`` (> 0)
     xi0: float  # ξ_ref at the push's start (m, along outward)
     centre: float  # the pushed sole's centre (m, along outward); its outer edge is half a width on
-    other_lift_s: float  # the other foot lifted (swinging) or may lift at the earliest (global s)
+    # the other foot down at the earliest, s after the push's start: no single support shorter
+    # than timing.MIN_SS_S after it lifted (swinging) or may lift (double support: the push's
+    # start), and no sooner than timing.MIN_REMAINING_S
+    landing_s: float
 
 
 def standing_foot(plan: GaitPlan, side: str, t: float) -> Footstep | None:
@@ -225,7 +228,8 @@ def pushed_foot(
             if xi0 <= float(outward @ other.position[:2]) + 0.5 * foot_width_m:
                 return None  # ξ over the other sole: the pushed foot may lift and step out
             lift = start_s  # at the earliest
-        return PushedFoot(foot, cos, xi0, centre, lift)
+        landing = max(timing.MIN_REMAINING_S, lift + timing.MIN_SS_S - start_s)
+        return PushedFoot(foot, cos, xi0, centre, landing)
     return None
 
 
@@ -304,19 +308,15 @@ def crossover_bound_at(
     robot's crossover region allows, as early as the swing may (``timing.MIN_REMAINING_S`` from
     the push's start and ``timing.MIN_SS_S`` after it lifted, or may lift at the earliest); None
     where the stance-edge bound does not apply or without a crossover region."""
-    from dcmviz.gait import timing
-
     found = _pushed(config, start_s, angle_rad, backend, body, moment_at_feet)
     if found is None or not found[0].crossover.polygons:
         return None
     robot, pushed, lever = found
-    spec, region = robot.spec, robot.crossover
-    # the lateral axis of the region points to the swinging foot's side: across is −lateral
-    farthest = max(-float(p[:, 1].min()) for p in region.polygons)
-    touchdown = max(timing.MIN_REMAINING_S, pushed.other_lift_s + timing.MIN_SS_S - start_s)
+    spec = robot.spec
+    farthest = reach_across(robot)
     centre, half, xi0 = pushed.centre, 0.5 * spec.foot_width_m, pushed.xi0
     return crossed_edge_impulse(
-        centre + half - xi0, centre + farthest + half - xi0, touchdown, spec.mass_kg,
+        centre + half - xi0, centre + farthest + half - xi0, pushed.landing_s, spec.mass_kg,
         config.dcm.b, duration_s, lever,
     ) / pushed.cos  # fmt: skip
 
@@ -343,7 +343,7 @@ def reach_across(robot) -> float:
     crossover region's farthest crossing (0 for a region that only reaches the stance foot's
     line, as the G1's), else −min_step_width (the feet keep that far apart)."""
     region = robot.crossover
-    if region.polygons:
+    if region.polygons:  # its lateral axis points to the swinging foot's side: across is −lateral
         return max(-float(p[:, 1].min()) for p in region.polygons)
     return -robot.spec.min_step_width_m
 
@@ -370,17 +370,14 @@ def footstep_bound_at(
     as wide as the robot steps (``max_step_width_m``).  None where :func:`pushed_foot` says no
     bound applies.  The point mass with its CMP inside the soles: angular momentum beyond the
     push's own moment (``moment_at_feet`` False: the trunk takes that) is not counted."""
-    from dcmviz.gait import timing
-
     found = _pushed(config, start_s, angle_rad, backend, body, moment_at_feet)
     if found is None:
         return None
     robot, pushed, lever = found
     spec = robot.spec
-    landing = max(timing.MIN_REMAINING_S, pushed.other_lift_s + timing.MIN_SS_S - start_s)
     distance = pushed.centre + 0.5 * spec.foot_width_m - pushed.xi0
     reach = reach_across(robot) if crossing else -spec.min_step_width_m
     return footstep_impulse(
-        distance, reach, spec.max_step_width_m, landing, timing.MIN_SS_S, spec.mass_kg,
+        distance, reach, spec.max_step_width_m, pushed.landing_s, timing.MIN_SS_S, spec.mass_kg,
         config.dcm.b, duration_s, lever,
     ) / pushed.cos  # fmt: skip
