@@ -7,7 +7,7 @@ import pytest
 
 from dcmviz import GRAVITY
 from dcmviz.config import config_from_dict
-from dcmviz.dcm import DisturbanceObserver, reference_shift
+from dcmviz.dcm import DisturbanceObserver, ShiftRate, reference_shift
 from dcmviz.session import Session
 
 
@@ -92,3 +92,57 @@ def test_update_before_reset_behaves_as_reset_at_rest():
     # the first sample after construction: p̂_0 = 0, so F̂_0 = k_F m ẋ_0 (eq. 45)
     obs = DisturbanceObserver(m, k_f)
     np.testing.assert_allclose(obs.update(np.array([0.1, 0, 0]), np.zeros(3), dt), [48.0, 0, 0])
+
+
+def test_shift_rate_is_a_first_order_low_pass_of_the_shifts_difference():
+    """On a shift ramping at r from rest the rate is r (1 − (1 − Δt/τ)^n) after n differences
+    (the closed form of the filter), the VRP reference v + s − b ṡ; a constant shift gives 0."""
+    dt, tau, b = 2e-3, 0.2, 0.3
+    rate = ShiftRate(dt, tau)
+    r = np.array([0.01, -0.03, 0.002])  # m/s
+    s0 = np.array([0.1, 0.2, 0.0])
+    assert np.all(rate.update(s0) == 0.0)  # the first shift is only recorded
+    for n in range(1, 401):
+        out = rate.update(s0 + r * n * dt)
+        np.testing.assert_allclose(out, r * (1.0 - (1.0 - dt / tau) ** n), rtol=1e-9, atol=1e-15)
+    v = np.array([1.0, 2.0, 0.8])
+    np.testing.assert_allclose(rate.vrp(v, b), v - b * out, rtol=0, atol=1e-15)
+    rate.reset()
+    for _ in range(5):
+        assert np.all(rate.update(s0) == 0.0)
+
+
+@pytest.mark.parametrize("adjust", [False, True])
+def test_a_ramped_load_leaves_only_the_observers_lag_in_the_dcm_error(adjust):
+    """Under a force growing at Ḟ the observer lags by Ḟ/k_F (eq. 44) and the shift moves at
+    ṡ = −b² Ḟ/m.  With v_ref + s − b ṡ (ShiftRate) the DCM error ė = −k_ξ e + b (F − F̂)/m
+    settles at b Ḟ/(m k_ξ k_F); with v_ref + s alone (the paper's constant shift) it settled at
+    b Ḟ (1/k_F + b)/(m k_ξ), four times that on Talos's numbers.  Point mass, 10 steps."""
+    f_max, ramp = 60.0, 6.0
+    config = config_from_dict(
+        {
+            "gait": {"n_steps": 10},
+            "control": {"observer": True, "step_adjustment": adjust},
+            "sim": {"backend": "lip"},
+            "pushes": [{"start": 0.5, "duration": 30.0, "force": [0.0, f_max, 0.0], "ramp": ramp}],
+        }
+    )
+    s = Session(config)
+    errors = []
+    while s.t < 6.4:
+        cmd = s.step()
+        if s.t > 3.0:  # the observer and the filter settled on the ramp (0.5 → 6.5 s)
+            errors.append(cmd.xi - cmd.xi_adj)
+    assert not s.fell
+    e = np.array(errors)
+    m, b = s.last_state.mass, config.dcm.b
+    k, k_f, rate = config.control.k_xi, config.control.k_f, f_max / ramp
+    lag_only = b * rate / (m * k * k_f)
+    constant_shift = b * rate * (1.0 / k_f + b) / (m * k)
+    assert constant_shift > 3.5 * lag_only
+    if not adjust:  # ξ_adj = ξ_ref + s: the error is the controller's alone
+        np.testing.assert_allclose(e[:, 1].mean(), lag_only, rtol=0.05)
+        assert np.ptp(e[:, 1]) < 0.1 * lag_only
+    else:  # the footsteps take part of it (next_step moves them by the error)
+        assert 0.5 * lag_only < e[:, 1].mean() < 1.05 * lag_only
+    assert np.max(np.abs(e[:, 0])) < 0.05 * constant_shift

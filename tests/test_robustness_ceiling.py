@@ -87,10 +87,13 @@ def test_the_lever_loaded_point_mass_with_talos_numbers_survives_up_to_1_5x(scal
     assert all(survived_starts("talos", scale, lever=True))
 
 
-@pytest.mark.parametrize("scale", [2.0, 2.5, 3.0])
-def test_the_lever_loaded_point_mass_with_talos_numbers_falls_from_2x(scale: float) -> None:
-    """Measured: 1.75× falls at two starts, 2× at three, 2.5× at all four (no holes)."""
-    assert sum(survived_starts("talos", scale, lever=True)) <= 1
+@pytest.mark.parametrize("scale, at_most", [(2.0, 2), (2.25, 1), (2.5, 0), (3.0, 0)])
+def test_the_lever_loaded_point_mass_with_talos_numbers_falls_from_2x(
+    scale: float, at_most: int
+) -> None:
+    """Measured: 1.75× and 2× fall at two starts, 2.25× at three, 2.5× at all four (no holes;
+    before the shifted VRP reference followed the shift's rate, ShiftRate, 2× fell at three)."""
+    assert sum(survived_starts("talos", scale, lever=True)) <= at_most
 
 
 def test_the_ceiling_report_names_what_each_shortfall_comes_to() -> None:
@@ -177,8 +180,8 @@ def test_late_falls_are_those_a_second_after_a_push_ended() -> None:
 def test_push_rollouts_from_the_shared_walk_to_the_push_equal_fresh_ones() -> None:
     """``bench/robustness.py`` walks to a start's first push once per process and runs each force
     from there (``_session``): the same fall, fall time, largest DCM error and steps as a fresh
-    session walking the whole run (the point mass with Talos's numbers, 1x survived, 3x fallen,
-    the second from the cached walk)."""
+    session walking the whole run (the point mass with Talos's numbers from the 3.85 s start, 1x
+    survived, 3x fallen, the second from the cached walk)."""
     from dcmviz.session import Session
 
     rb = robustness_bench()
@@ -186,7 +189,7 @@ def test_push_rollouts_from_the_shared_walk_to_the_push_equal_fresh_ones() -> No
     mass = Session(base, backend="lip").mass
     rb._PREFIX.clear()
     for scale, falls in ((1.0, False), (3.0, True)):
-        job = rb.Job("push", "start 3.40s", scale, rb.push_config(base, mass, scale, 3.40),
+        job = rb.Job("push", "start 3.85s", scale, rb.push_config(base, mass, scale, 3.85),
                      rb.PUSH_DURATION_S)  # fmt: skip
         shared = rb.rollout(job)
         fresh = Session(job.config, backend="lip")
@@ -195,7 +198,7 @@ def test_push_rollouts_from_the_shared_walk_to_the_push_equal_fresh_ones() -> No
         assert shared["fall_time_s"] == metrics.fall_time_s
         assert shared["max_dcm_error_m"] == metrics.max_dcm_error_m
         assert shared["steps_completed"] == fresh.steps_completed
-    assert len(rb._PREFIX) == 1  # the walk to 3.40 s, once
+    assert len(rb._PREFIX) == 1  # the walk to 3.85 s, once
 
 
 def _limits(final: float, joints=(("RKneePitch", 0.4),), final_joints=(("RKneePitch", 1.0),)):

@@ -27,11 +27,12 @@ from dcmviz.dcm.interpolation import (
     gamma_0,
     sigma,
 )
-from dcmviz.dcm.observer import DisturbanceObserver, moment_shift, reference_shift
+from dcmviz.dcm.observer import DisturbanceObserver, ShiftRate, moment_shift, reference_shift
 from dcmviz.dcm.preview import PhaseSchedule, Preview
 
 __all__ = [
     "DisturbanceObserver",
+    "ShiftRate",
     "adaptation_factor",
     "adjusted_waypoints",
     "adjustment_gain",

@@ -66,3 +66,44 @@ def moment_shift(tau_hat: NDArray, mass: float, gravity: float = GRAVITY) -> NDA
     """
     tau = np.asarray(tau_hat, dtype=float)
     return np.array([-tau[1], tau[0], 0.0]) / (mass * gravity)
+
+
+SHIFT_RATE_TAU_S = 0.2  # s, low-pass of the shift's rate (F̂ carries impacts and QP transients)
+
+
+class ShiftRate:
+    """ṡ, the rate of the reference shift s(t) (eqs. 47–49 with ``moment_shift``), low-passed.
+
+    Not in the paper, which shifts every reference by the same s and so assumes s constant.  A
+    shifted pair ξ_ref + s, v_ref + s is a DCM and its VRP (ξ̇ = (ξ − v)/b, eq. 5) only while
+    ṡ = 0: under a load that grows (the tug of war's 6 s ramp), the DCM controller (eq. 24)
+    keeps a steady error e = −ṡ/k_ξ + b (F − F̂)/(m k_ξ), both parts towards the load (the
+    first 7 mm of the point mass's 9 mm under a G1's 20 % ramp).  With v_ref + s − b ṡ the pair
+    is consistent again (:meth:`vrp`) and only the observer's own lag remains, F − F̂ = Ḟ/k_F
+    (eq. 44).  The rate is the shift's finite difference through a first-order low-pass of
+    SHIFT_RATE_TAU_S: continuous (the VRP reference never jumps), and exact on a ramp.
+    """
+
+    def __init__(self, dt: float, tau: float = SHIFT_RATE_TAU_S) -> None:
+        if not dt > 0.0 or not tau > 0.0:
+            raise ValueError(f"dt = {dt}, tau = {tau}: both must be > 0 s")
+        self.dt, self.tau = float(dt), float(tau)
+        self.reset()
+
+    def reset(self) -> None:
+        """No rate (and no previous shift: the next update only records it)."""
+        self.rate = np.zeros(3)
+        self._previous: NDArray | None = None
+
+    def update(self, shift: NDArray) -> NDArray:
+        """Feed this tick's shift s (m); returns the low-passed ṡ (m/s)."""
+        shift = np.asarray(shift, dtype=float)
+        if self._previous is not None:
+            raw = (shift - self._previous) / self.dt
+            self.rate = self.rate + (self.dt / max(self.tau, self.dt)) * (raw - self.rate)
+        self._previous = shift.copy()
+        return self.rate
+
+    def vrp(self, v_shifted: NDArray, b: float) -> NDArray:
+        """v_ref + s − b ṡ from the shifted v_ref + s: the VRP of the shifted DCM reference."""
+        return np.asarray(v_shifted, dtype=float) - b * self.rate

@@ -6,7 +6,8 @@ Each tick the walker reads a :class:`~dcmviz.walker.state.MeasuredState` and ans
 1. clock the walk through its plan (:meth:`dcmviz.gait.walk.Walk.clock`): footsteps are
    committed where the feet land, continuous mode replans at each touchdown;
 2. measured DCM ξ = x + b ẋ (eq. 1);
-3. disturbance observer F̂ (eqs. 45, 46) and the reference shift −b²/m F̂ (eqs. 47–49);
+3. disturbance observer F̂ (eqs. 45, 46) and the reference shift s = −b²/m F̂ (eqs. 47–49),
+   v_ref shifted by s − b ṡ where s changes (:class:`~dcmviz.dcm.observer.ShiftRate`);
 4. push recovery by the strategy of ``control.recovery`` (:mod:`dcmviz.recovery`): which
    footsteps move where, and the adapted DCM reference ξ_adj = ξ_ref + Δξ_adj (eqs. 27–35);
 5. desired VRP v = v_ref + (1 + k_ξ b)(ξ − ξ_adj) (eq. 41; eq. 24 without adjustment) and the CoM
@@ -26,6 +27,7 @@ from dcmviz import GRAVITY
 from dcmviz.config import Config, ControlSection
 from dcmviz.dcm import (
     DisturbanceObserver,
+    ShiftRate,
     com_force,
     moment_shift,
     reference_shift,
@@ -73,6 +75,7 @@ class Walker:
         self.dt = float(dt)
         self.b = config.dcm.b
         self.observer = DisturbanceObserver(self.mass, config.control.k_f)
+        self.shift_rate = ShiftRate(self.dt)  # ṡ: v_ref + s − b ṡ (ShiftRate)
         # the part of F̂ that has lasted (a pull, not a push), for a strategy that plans ahead
         # with it (RecoveryStrategy.uses_held_load): the whole-body QP's notion of held, with
         # its window and lag
@@ -93,6 +96,8 @@ class Walker:
         fresh state from the next tick.
         """
         control = config.control
+        if control.observer != self.control.observer:
+            self.shift_rate.reset()  # the shift starts (F̂ from 0) or is dropped: no rate
         if control.observer and not self.control.observer:
             self.observer.reset(state.com_velocity)
         self.observer.k_f = float(control.k_f)
@@ -117,6 +122,7 @@ class Walker:
         self._adjustment = NO_ADJUSTMENT
         self._last_contact_force = self.mass * GRAVITY * E_Z
         self.observer.reset(state.com_velocity)
+        self.shift_rate.reset()
         self.held.reset()
         self._status = None
         return self.walk.plan
@@ -174,6 +180,9 @@ class Walker:
 
         if local >= preview.duration:  # the plan has ended: stand on its final VRP (D3)
             xi_ref = v_ref = preview.waypoints[-1] + shift
+        if cfg.observer:  # a shift that changes: the VRP of the shifted ξ_ref (ShiftRate)
+            self.shift_rate.update(shift)
+            v_ref = self.shift_rate.vrp(v_ref, b)
         if cfg.step_adjustment:  # push recovery (§III-A)
             adjustment = self.strategy.adjust(walk, t, local, xi - xi_ref, cfg.max_step_adjustment)
             if adjustment.retarget_swing:
