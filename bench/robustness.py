@@ -36,8 +36,9 @@ fall, and the holes: levels that fell although a higher level of the same row wa
 which no footsteps save the walk (``push_bounds``, JSON ``push.bounds``: with the torso's moment
 at the feet or taken by the trunk; for legs that reach across, also with the feet kept apart),
 and per scale at how many starts it lies beyond: a fall there is physics, not a controller.
-With MuJoCo it also walks the gait once unpushed and names the joints nearest their torque limits in single support (``torque_headroom``: a
-robot whose knees are at their limit walking has none left for a push).  After the pull table
+With MuJoCo it also walks the gait once unpushed and names the joints nearest their torque
+limits in single support (``torque_headroom``: a robot whose knees are at their limit walking
+has none left for a push).  After the pull table
 it prints how hard the legs can lean against a pull on one foot (``lean_bounds``, statics:
 :mod:`dcmviz.robots.lean`), with the trunk upright and rolled.  ``--json`` writes the same as data
 (``torque_headroom``: joint, limit_nm, at_limit_share, peak_share; ``lean``: trunk_roll_rad,
