@@ -88,6 +88,7 @@ class ShiftRate:
         if not dt > 0.0 or not tau > 0.0:
             raise ValueError(f"dt = {dt}, tau = {tau}: both must be > 0 s")
         self.dt, self.tau = float(dt), float(tau)
+        self._share = self.dt / max(self.tau, self.dt)  # of the step to the new difference, a tick
         self.reset()
 
     def reset(self) -> None:
@@ -100,7 +101,7 @@ class ShiftRate:
         shift = np.asarray(shift, dtype=float)
         if self._previous is not None:
             raw = (shift - self._previous) / self.dt
-            self.rate = self.rate + (self.dt / max(self.tau, self.dt)) * (raw - self.rate)
+            self.rate = self.rate + self._share * (raw - self.rate)
         self._previous = shift.copy()
         return self.rate
 
