@@ -529,6 +529,7 @@ class SimLoop:
             return
         current = self.session.config
         state, forces, seq = tl.resume_from(seq)
+        shown_t = tl.time_of(seq)  # the time the scrubbed frame showed (its tick's start)
         session = self.session
         session.restore_state(state)
         session.replay(forces)
@@ -552,7 +553,9 @@ class SimLoop:
         self.resumes += 1
         edits = [k for k in ("robot", "gait", "dcm", "sim", "pushes", "terrain")
                  if getattr(current, k) != getattr(walked, k)]  # fmt: skip
-        self.note = f"resumed from t = {session.t:.2f} s" + ("" if exact else " (not exact)")
+        # the frame's own time, as the time bar showed it: the session's clock stands one tick
+        # later (the frame's end), and at a 5 ms tick t.xx5 rounds either way
+        self.note = f"resumed from t = {shown_t:.2f} s" + ("" if exact else " (not exact)")
         if edits:
             self.note += f"; the walk's own {', '.join(edits)} settings"
         self.note_seq += 1
