@@ -7,6 +7,7 @@ one QP, so adding a task never touches the solver.
 from __future__ import annotations
 
 import math
+import weakref
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
@@ -111,7 +112,9 @@ class BaseOrientationTask(Task):
         self.A = np.zeros((3, layout.nx))
         self.constant_gram = np.zeros((layout.nx, layout.nx))
         self.constant_gram[3:6, 3:6] = np.eye(3)  # A = [0 R 0]: AᵀA = RᵀR = I
-        self._target: tuple[Context, np.ndarray] | None = None
+        # R_d of the last context, which is held weakly: a strong reference would keep the
+        # previous tick's context (≈ 9 KB on Talos) alive after the backend has replaced it
+        self._target: tuple[weakref.ref[Context], np.ndarray] | None = None
 
     def lean_rotation(self, ctx: Context, cmd: WalkerCommand) -> np.ndarray | None:
         """The tilt of R_d (3×3) for the present estimates, None when there is none."""
@@ -129,7 +132,7 @@ class BaseOrientationTask(Task):
     def target(self, ctx: Context, cmd: WalkerCommand) -> np.ndarray:
         """R_d for this tick (computed once per context)."""
         cached = self._target
-        if cached is not None and cached[0] is ctx:
+        if cached is not None and cached[0]() is ctx:
             return cached[1]
         y_l, y_r = cmd.feet["left"].yaw, cmd.feet["right"].yaw
         yaw = math.atan2(math.sin(y_l) + math.sin(y_r), math.cos(y_l) + math.cos(y_r))
@@ -138,7 +141,7 @@ class BaseOrientationTask(Task):
             tilt = self.lean_rotation(ctx, cmd)
             if tilt is not None:
                 target = tilt @ target
-        self._target = (ctx, target)
+        self._target = (weakref.ref(ctx), target)
         return target
 
     def compute(self, ctx: Context, cmd: WalkerCommand) -> tuple[np.ndarray, np.ndarray]:
