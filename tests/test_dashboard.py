@@ -379,17 +379,15 @@ def test_fall_notifies_and_resets() -> None:
     d = Dashboard(server, config, presets_dir=PRESETS, start=False)
     try:
         d.loop.start()
-        deadline = time.time() + 10.0
-        while d.loop.session.t < 0.3 and time.time() < deadline:  # walking
-            time.sleep(0.02)
+        assert wait_for(lambda: d.loop.session.t >= 0.3, 20)  # walking
         assert d.push_panel.push((1000.0, 0.0, 0.0), "torso", None)
-        while d.loop.falls == 0 and time.time() < deadline:
-            time.sleep(0.05)
+        assert wait_for(lambda: d.loop.falls >= 1, 20)
+        # the loop counts the fall, then (same thread, a moment later) tells it
+        assert wait_for(lambda: any(title == "Fall" for title, *_ in d.notifications), 20)
         assert d.loop.falls == 1
-        assert d.notifications[-1][0] == "Fall" and "Likely cause" in d.notifications[-1][1]
-        while d.loop.session.fell and time.time() < deadline:
-            time.sleep(0.05)
-        assert not d.loop.session.fell  # reset after the pause, still running
+        falls = [body for title, body, *_ in d.notifications if title == "Fall"]
+        assert len(falls) == 1 and "Likely cause" in falls[0]
+        assert wait_for(lambda: not d.loop.session.fell, 20)  # reset after the pause
         assert d.loop.running()
     finally:
         d.stop()
@@ -821,6 +819,7 @@ def test_a_lagging_tab_keeps_its_camera_on_the_robot() -> None:
     initial = np.asarray(server.initial_camera.position, float)
 
     received: list[list[float]] = []
+    anchors: list[float] = []
 
     async def lagging_tab(seconds: float) -> None:
         url = f"ws://127.0.0.1:{server.get_port()}"
@@ -849,6 +848,8 @@ def test_a_lagging_tab_keeps_its_camera_on_the_robot() -> None:
                             # report; echoing it seconds later would be a user's move
                             continue
                         received.append(list(m["position"]))
+                        # where the robot was when it came (the render thread moves on)
+                        anchors.append(float(d.view._follow_anchor[0]))
                         tasks.append(asyncio.create_task(echo(list(m["position"]))))
             for task in tasks:
                 task.cancel()
@@ -857,8 +858,9 @@ def test_a_lagging_tab_keeps_its_camera_on_the_robot() -> None:
         assert wait_for(lambda: d.loop.session.t > 0.2, 20)
         x0 = float(d.loop.snapshot.com[0])
         asyncio.run(lagging_tab(6.0))
-        x1 = float(d.view._follow_anchor[0])  # where the last camera move put the robot
-        assert x1 - x0 > 0.3 and received  # the robot walked while the tab lagged
+        assert received
+        x1 = anchors[-1]  # where the last camera move put the robot
+        assert x1 - x0 > 0.3  # the robot walked while the tab lagged
         # the tab was sent its camera at its first offset from the robot, not behind it
         assert received[-1][0] - x1 == pytest.approx(first["position"][0] - x0, abs=0.05)
     finally:

@@ -431,7 +431,7 @@ def test_reset_while_paused_keeps_the_robot_drawn(page, app) -> None:
     snap = app.view.drawn
     assert snap.tick is None and not snap.status.playing
     leg = app.view._markers["lip_leg"]
-    assert wait_for(lambda: leg.visible, 5)
+    assert wait_for(lambda: leg.visible, 15)
     foot, top = np.asarray(leg.points)[0]
     np.testing.assert_allclose(top, snap.com, atol=1e-5)
     assert foot[2] == pytest.approx(0.0, abs=0.01)  # on the ground
