@@ -304,6 +304,53 @@ def test_trunk_tilt_bounds_brake_before_the_limit(robot):
     assert theta == pytest.approx(limit, abs=2e-3) and abs(omega) < 0.05
 
 
+@pytest.mark.parametrize("pitch_limit", [0.0, 0.2])
+def test_trunk_tilt_bounds_the_roll_about_the_walking_direction(robot, pitch_limit: float) -> None:
+    """Feet and base turned by ψ = 0.6 rad, the base tilted θ about an axis u of the ground
+    (the walking direction R_z(ψ) e_x: a roll; its left R_z(ψ) e_y: a pitch) at ω about u: the
+    roll gets the brake-before-the-limit bounds of the unturned robot (the formula of the test
+    above); the pitch the same with ``pitch_limit`` θ_max, and ±4 a (free) with 0.  The rows of
+    A are uᵀ R (ω̇ about u from the base's local ω̇)."""
+    import dataclasses
+
+    layout = Layout(robot.nv)
+    task = BaseOrientationTask(layout, kp=30.0, kd=11.0, weight=3.0)
+    psi, limit, T, a = 0.6, 0.2, 0.05, 20.0
+    con = TrunkTilt(layout, task, limit=limit, horizon=T, max_acceleration=a,
+                    pitch_limit=pitch_limit)  # fmt: skip
+    turn = pin.exp3(np.array([0.0, 0.0, psi]))
+    axes = {0: turn @ np.array([1.0, 0.0, 0.0]), 1: turn @ np.array([0.0, 1.0, 0.0])}
+
+    for row, u in axes.items():
+        for theta, omega in ((0.05, 0.3), (0.15, 0.5), (-0.1, -0.2), (0.0, 3.0)):
+            q = robot.q_nominal.copy()
+            R = pin.exp3(theta * u) @ turn
+            q[3:7] = pin.Quaternion(R).coeffs()
+            v = np.zeros(robot.nv)
+            v[3:6] = R.T @ (omega * u)  # base frame
+            ctx = Kinematics(robot).context(q, v)
+            cmd = _command(robot, q)
+            cmd = dataclasses.replace(
+                cmd, feet={s: dataclasses.replace(f, yaw=psi) for s, f in cmd.feet.items()}
+            )
+            A, lo, up = np.zeros((2, layout.nx)), np.zeros(2), np.zeros(2)
+            con.compute(ctx, cmd, A, lo, up)
+            np.testing.assert_allclose(A[row, 3:6], u @ ctx.base_rotation, atol=1e-12)
+            bound = limit if row == 0 else pitch_limit
+            if bound == 0.0:
+                assert (lo[row], up[row]) == (-4 * a, 4 * a)
+                continue
+            room = bound - theta - omega * T
+            fastest = math.copysign(math.sqrt(2 * a * abs(room)), room)
+            slowest = -math.sqrt(2 * a * (bound + theta + omega * T))
+            assert up[row] == pytest.approx(
+                min(max((fastest - omega) / T, -4 * a), 4 * a), abs=1e-6
+            )
+            assert lo[row] == pytest.approx(
+                min(max((slowest - omega) / T, -4 * a), 4 * a), abs=1e-6
+            )
+
+
 def test_a_lean_beyond_the_legs_reach_lowers_the_references():
     """The walker's reference shift for a lean s at the plan's height h: Δz = min(0, H(s)
     − w/2 sin atan(s/h) − h), H(s) = H_max − D + sqrt(D² − s²) the CoM height legs of length D

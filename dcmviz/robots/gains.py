@@ -26,13 +26,17 @@ class Gains:
     # the trunk leans along the contact force m g e_z − F̂ a sustained external force asks for
     # (0: upright; 1: as far as that force is tilted)
     trunk_lean: float = 1.0
-    # the trunk tilts at most this far (rad) from its target when the QP tips it to realise a
-    # force the soles cannot (TrunkTilt), braking with trunk_tilt_acceleration rad/s², its rate
-    # brought within reach of that in trunk_tilt_horizon s (0: no bound).  Off by default: on
-    # Talos (bench/robustness.py, 2x push starting 3.40 s) the bound stopped the hip strategy
-    # that saves the push (falls at 5.4 s with 0.2 rad, survives without), and no pull or push
-    # measured needed it (Talos 25 % pulls, G1/Romeo 15 % pulls: the same either way)
+    # the trunk tilts sideways (roll about the walking direction) at most this far (rad) from
+    # its target when the QP tips it to realise a force the soles cannot (TrunkTilt), braking
+    # with trunk_tilt_acceleration rad/s², its rate brought within reach of that in
+    # trunk_tilt_horizon s (0: no bound); trunk_pitch_limit the same forwards and backwards
+    # (0: free).  Off by default.  Measured with 0.3 (docs/robots.md, "The trunk's tilt bound,
+    # measured again"): the G1 under a held pull holds 17.5 % with every strategy (multi_step
+    # falls at 15 % without), Talos 30 % with every strategy, the push pairs survive where they
+    # did; but the G1's next_step then falls at 20 % +y (11.3 s), which it holds without, and
+    # on roll and pitch it cost the 0.2 s pushes forwards and backwards 6-13 %
     trunk_tilt_limit: float = 0.0
+    trunk_pitch_limit: float = 0.0
     trunk_tilt_horizon: float = 0.05
     trunk_tilt_acceleration: float = 20.0
     kp_posture: float = 30.0

@@ -106,7 +106,7 @@ class WholeBodyController:
         if g.trunk_tilt_limit > 0:
             self.constraints.append(
                 TrunkTilt(lay, base, g.trunk_tilt_limit, g.trunk_tilt_horizon,
-                          g.trunk_tilt_acceleration)
+                          g.trunk_tilt_acceleration, pitch_limit=g.trunk_pitch_limit)
             )  # fmt: skip
         if g.joint_limits:
             self.constraints.append(
