@@ -352,7 +352,7 @@ def test_upload_preset(page, app, shots: Path) -> None:
     page.screenshot(path=shots / "06_uploaded.png")
 
 
-def aim_camera_at(dashboard: Dashboard, client, page, point, timeout: float = 10.0):
+def aim_camera_at(dashboard: Dashboard, client, page, point, timeout: float = 20.0):
     """Put ``client``'s camera behind-left of ``point`` (view ≈ +x, the point left of the
     panel) and return the point's pixel in the page once the tab has applied that camera."""
     point = np.asarray(point, float)
@@ -426,7 +426,7 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path, request) -> None:
             and shown[1] == magnitude
         )
 
-    assert wait_for(aimed)
+    assert wait_for(aimed, timeout=20)
     direction, shown_magnitude, label = dashboard.aim.shown(client.client_id)
     assert shown_magnitude == magnitude and f"{magnitude:.0f} N" in label
     # and the tab draws it: orange where the arrow's middle projects
