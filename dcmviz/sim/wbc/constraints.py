@@ -226,7 +226,8 @@ class TrunkTilt(Constraint):
         self, ctx: Context, cmd: WalkerCommand, A: np.ndarray, lo: np.ndarray, up: np.ndarray
     ) -> bool:
         R = ctx.base_rotation
-        c, s = _heading(cmd)
+        yaw = self.task.heading(cmd)
+        c, s = math.cos(yaw), math.sin(yaw)
         # rows 0, 1: about the walking direction (roll) and its left (pitch), in the world
         H = np.array([[c, s, 0.0], [-s, c, 0.0]])
         A[:, 3:6] = H @ R  # ω̇_world = R ω̇_local
@@ -245,11 +246,3 @@ class TrunkTilt(Constraint):
             up[i] = min(max((fastest - omega) / T, -stop), stop)
             lo[i] = min(max((slowest - omega) / T, -stop), stop)
         return False
-
-
-def _heading(cmd: WalkerCommand) -> tuple[float, float]:
-    """cos, sin of the walking direction: the feet's mean yaw (as R_d's)."""
-    y_l, y_r = cmd.feet["left"].yaw, cmd.feet["right"].yaw
-    x, y = math.cos(y_l) + math.cos(y_r), math.sin(y_l) + math.sin(y_r)
-    n = math.hypot(x, y)
-    return (x / n, y / n) if n > 1e-12 else (1.0, 0.0)

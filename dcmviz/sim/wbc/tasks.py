@@ -129,13 +129,18 @@ class BaseOrientationTask(Task):
         angle = self.lean * math.atan2(d, z)
         return pin.exp3(np.array([-dy / d, dx / d, 0.0]) * angle)  # about e_z × d
 
+    @staticmethod
+    def heading(cmd: WalkerCommand) -> float:
+        """The walking direction (rad): the feet's mean yaw, R_d's yaw."""
+        y_l, y_r = cmd.feet["left"].yaw, cmd.feet["right"].yaw
+        return math.atan2(math.sin(y_l) + math.sin(y_r), math.cos(y_l) + math.cos(y_r))
+
     def target(self, ctx: Context, cmd: WalkerCommand) -> np.ndarray:
         """R_d for this tick (computed once per context)."""
         cached = self._target
         if cached is not None and cached[0]() is ctx:
             return cached[1]
-        y_l, y_r = cmd.feet["left"].yaw, cmd.feet["right"].yaw
-        yaw = math.atan2(math.sin(y_l) + math.sin(y_r), math.cos(y_l) + math.cos(y_r))
+        yaw = self.heading(cmd)
         target = _rot_z(yaw) if self.base_offset is None else _rot_z(yaw) @ self.base_offset
         if self.lean:
             tilt = self.lean_rotation(ctx, cmd)
