@@ -46,6 +46,14 @@ class SustainedLoad:
         self.moment = np.zeros(3)
         self._window[:] = 0.0
         self._i = 0
+        self._count_signs()
+
+    def _count_signs(self) -> None:
+        """Per component, how many samples in the window are > 0 and < 0: the sign rule needs
+        the window's min or max only for a component of one sign throughout (a held load), and
+        the counts, kept up to date per sample, say which without reading the window."""
+        self._positive = (self._window > 0.0).sum(axis=1).tolist()
+        self._negative = (self._window < 0.0).sum(axis=1).tolist()
 
     def get_state(self) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
         """A copy of the window, its index and the present values (a resume from a tick)."""
@@ -56,42 +64,52 @@ class SustainedLoad:
         window, self._i, force, moment = state
         self._window[:] = window
         self.force, self.moment = force.copy(), moment.copy()
+        self._count_signs()
 
     def update(self, t: float, force: np.ndarray, moment: np.ndarray) -> None:
         """Take the present estimates (N, N m) at time ``t`` (s; one sample per control tick)."""
-        if self._n == 0:
+        n = self._n
+        if n == 0:
             self.force = np.array(force, dtype=float)
             self.moment = np.array(moment, dtype=float)
             return
-        column = self._window[:, self._i]
-        column[:3] = force
-        column[3:] = moment
-        self._i = (self._i + 1) % self._n
-        low = self._window.min(axis=1).tolist()
-        high = self._window.max(axis=1).tolist()
-        value = [
-            lo if lo > 0.0 else hi if hi < 0.0 else 0.0 for lo, hi in zip(low, high, strict=True)
-        ]
-        n, i = self._n, self._i  # the oldest sample is at i, the newest at i - 1
-        if n >= 4:
-            ends = self._window[:, [i % n, (i + n // 4) % n, (i + n // 2) % n,
-                                    (i + 3 * n // 4) % n, (i - 1) % n]].tolist()  # fmt: skip
-            for k, (a, q1, q2, q3, e) in enumerate(ends):
-                if value[k] == 0.0:
-                    continue  # the sign changed: nothing held
-                span = e - a
-                tol = RAMP_TOLERANCE * abs(span) + RAMP_FLOOR[k // 3]
-                if (
-                    abs(span) > RAMP_FLOOR[k // 3]
-                    and abs(q1 - (a + 0.25 * span)) <= tol
-                    and abs(q2 - (a + 0.5 * span)) <= tol
-                    and abs(q3 - (a + 0.75 * span)) <= tol
-                ):
-                    value[k] = e
+        window, i = self._window, self._i
+        old = window[:, i].tolist()
+        new = [*np.asarray(force, dtype=float).tolist(), *np.asarray(moment, dtype=float).tolist()]
+        window[:, i] = new
+        self._i = i = (i + 1) % n  # the oldest sample is at i, the newest at i - 1
+        positive, negative = self._positive, self._negative
+        value = [0.0] * 6
+        for k in range(6):
+            positive[k] += (new[k] > 0.0) - (old[k] > 0.0)
+            negative[k] += (new[k] < 0.0) - (old[k] < 0.0)
+            if positive[k] == n:  # one sign throughout: the smallest magnitude
+                value[k] = float(window[k].min())
+            elif negative[k] == n:
+                value[k] = float(window[k].max())
+            else:
+                continue  # the sign changed (or a sample is 0): nothing held
+            if n < 4:
+                continue
+            row = window[k]
+            a, q1, q2, q3, e = (row.item(i % n), row.item((i + n // 4) % n),
+                                row.item((i + n // 2) % n), row.item((i + 3 * n // 4) % n),
+                                row.item((i - 1) % n))  # fmt: skip
+            span = e - a
+            tol = RAMP_TOLERANCE * abs(span) + RAMP_FLOOR[k // 3]
+            if (
+                abs(span) > RAMP_FLOOR[k // 3]
+                and abs(q1 - (a + 0.25 * span)) <= tol
+                and abs(q2 - (a + 0.5 * span)) <= tol
+                and abs(q3 - (a + 0.75 * span)) <= tol
+            ):
+                value[k] = e
         if self._settle < 1.0:  # first-order lag towards the value, in place
             a = self._settle
-            self.force += a * (np.array(value[:3]) - self.force)
-            self.moment += a * (np.array(value[3:]) - self.moment)
+            f, m = self.force, self.moment
+            for k in range(3):  # as floats: the same operations as on the arrays
+                f[k] += a * (value[k] - f.item(k))
+                m[k] += a * (value[3 + k] - m.item(k))
             return
         self.force = np.array(value[:3])
         self.moment = np.array(value[3:])
