@@ -406,8 +406,8 @@ class Session:
         return self.metrics
 
     def _record(self, cmd: WalkerCommand, forces: dict[str, np.ndarray]) -> None:
-        e = cmd.xi - cmd.xi_ref
-        error = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+        ex, ey, ez = (cmd.xi - cmd.xi_ref).tolist()
+        error = math.sqrt(ex * ex + ey * ey + ez * ez)
         m = self.metrics
         m.ticks += 1
         m.final_dcm_error_m = error
@@ -419,7 +419,10 @@ class Session:
         h["xi"][i], h["xi_ref"][i], h["xi_adj"][i] = cmd.xi, cmd.xi_ref, cmd.xi_adj
         h["v_cmd"][i], h["v_ref"][i], h["f_hat"][i] = cmd.v_cmd, cmd.v_ref, cmd.f_hat
         h["com"][i] = self.last_state.com
-        h["f_ext"][i] = sum(forces.values(), np.zeros(3))
+        total = h["f_ext"][i]  # 0 + each force in turn, in place (as sum() from zeros)
+        total.fill(0.0)
+        for force in forces.values():
+            total += force
         self._n += 1
 
     def history(self) -> dict[str, np.ndarray]:

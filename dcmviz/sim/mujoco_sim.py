@@ -141,6 +141,12 @@ class MujocoBackend:
         self._sole_wrenches = np.zeros((len(SIDES), 6))
         self._sole_points = np.zeros((len(SIDES), 3))
         self._sole_sites = np.array([self.scene.sole_sites[s] for s in SIDES])
+        # views into MjData's buffers, fixed for its life: read through them every tick without
+        # the bindings' per-access wrapper (the same numbers)
+        self._site_z = self.data.site_xpos[:, 2]
+        self._body_z = self.data.xpos[:, 2]
+        self._cfrc_ext = self.data.cfrc_ext
+        self._subtree_com = self.data.subtree_com
         self._qpos_adr = np.asarray(self.scene.qpos_adr, dtype=np.intp)  # robot_pose's joints
         self.t = 0.0
         self._sink = 0.0
@@ -226,11 +232,12 @@ class MujocoBackend:
         the CoM (N m). Pushes act on other bodies and are not included. A sole body's wrench sums
         its contacts with every geom (the floor and any terrain box), so a sole on a tread counts."""
         mujoco.mj_rnePostConstraint(self.model, self.data)
-        wrenches = self.data.cfrc_ext[self._sole_bodies]
+        wrenches = self._cfrc_ext[self._sole_bodies]
         self._sole_wrenches = wrenches  # (a copy: fancy indexing) for contacts()
-        self._sole_points = self.data.subtree_com[self._sole_roots]
-        self._applied = wrenches[:, 3:].sum(axis=0)
-        self._contact_moment = wrenches[:, :3].sum(axis=0)
+        self._sole_points = self._subtree_com[self._sole_roots]
+        left, right = wrenches  # the two soles' rows: their sum as the sum over axis 0 is
+        self._applied = left[3:] + right[3:]
+        self._contact_moment = left[:3] + right[:3]
         normal = wrenches[:, 5].tolist()
         self._contact_force = dict(zip(SIDES, normal, strict=True))
         self._contact = {s: f > 0.1 for s, f in zip(SIDES, normal, strict=True)}
@@ -302,11 +309,11 @@ class MujocoBackend:
         d = self.data
         if not self.terrain.flat:
             return self._fell_on_terrain()
-        floor = d.site_xpos[self._sole_sites, 2].min()
+        floor = self._site_z[self._sole_sites].min()
         base_z = d.qpos[2] - floor
         nominal = self.robot.q_nominal[2]
         up = d.xmat[1][8]  # cos(tilt) of the root body
-        low = d.xpos[self._upper_bodies, 2].min() - floor < 0.08
+        low = self._body_z[self._upper_bodies].min() - floor < 0.08
         return bool(base_z < 0.55 * nominal or up < _COS_45 or low)
 
     def _fell_on_terrain(self) -> bool:
