@@ -18,7 +18,7 @@ import zstandard
 viser = pytest.importorskip("viser")
 websockets = pytest.importorskip("websockets")
 
-from helpers import free_port  # noqa: E402
+from helpers import free_port, wait_for  # noqa: E402
 
 from dcmviz.config import Config  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
@@ -117,15 +117,6 @@ def shown_value(messages: list[dict], uuid: str):
         if m["type"] == "GuiUpdateMessage" and m.get("uuid") == uuid:
             value = m["updates"].get("value", value)
     return value
-
-
-def wait_for(condition, timeout: float = 20.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(0.02)
-    return condition()
 
 
 def test_huge_integer_is_clamped_and_every_tab_keeps_working(served) -> None:
