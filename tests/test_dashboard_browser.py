@@ -150,7 +150,7 @@ def test_slider_changes_preview(page, app, shots: Path) -> None:
         diff = np.abs(loaded - pixels(shots / "02_n_steps_14.png"))
         return (diff.sum(axis=2) > 30).mean() > 0.001
 
-    assert wait_for(redrawn, timeout=20)
+    assert wait_for(redrawn)
 
 
 def test_typed_value_beyond_the_robot_is_clamped_and_told(page, app, shots: Path) -> None:
@@ -234,7 +234,7 @@ def test_push_raises_and_recovers_dcm_error(page, app, shots: Path) -> None:
     t_push = session.pushes[-1].start
     assert wait_for(lambda: session.t > t_push + 0.3, timeout=10)
     page.screenshot(path=shots / "04_push.png")
-    assert wait_for(lambda: session.t > t_push + 3.0, timeout=20)
+    assert wait_for(lambda: session.t > t_push + 3.0)
     history = session.history()
     t, error = history["t"], history["dcm_error"]
     before = error[(t > t_push - 0.5) & (t < t_push)]
@@ -334,7 +334,7 @@ def test_upload_preset(page, app, shots: Path) -> None:
                                ("empty.toml", b"", "empty")):  # fmt: skip
         n = len(dashboard.notifications)
         upload.set_input_files(files=[{"name": name, "mimeType": "text/plain", "buffer": content}])
-        assert wait_for(lambda n=n: len(dashboard.notifications) > n, timeout=20)
+        assert wait_for(lambda n=n: len(dashboard.notifications) > n)
         title, body = dashboard.notifications[-1]
         assert title == "Upload refused" and why in body and "docs/presets.md" in body
         assert dashboard.server.gui._current_file_upload_states == {}
@@ -426,7 +426,7 @@ def test_click_on_the_robot_pushes_it(page, app, shots: Path, request) -> None:
             and shown[1] == magnitude
         )
 
-    assert wait_for(aimed, timeout=20)
+    assert wait_for(aimed)
     direction, shown_magnitude, label = dashboard.aim.shown(client.client_id)
     assert shown_magnitude == magnitude and f"{magnitude:.0f} N" in label
     # and the tab draws it: orange where the arrow's middle projects

@@ -4,6 +4,7 @@ references where a lean asks more of the legs than they reach."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -266,6 +267,16 @@ def test_the_trunk_leans_with_the_robot_under_a_sustained_pull(robot):
     np.testing.assert_allclose(up, np.array([0.0, -d, z]) / math.hypot(d, z), atol=1e-12)
 
 
+def _braking_bounds(limit: float, theta: float, omega: float, T: float, a: float):
+    """(lo, up) of ω̇ for a tilt θ at rate ω bounded to ±θ_max = ``limit``: ω may reach
+    ±sqrt(2 a (θ_max ∓ (θ + ω T))) within T, within ±4 a (TrunkTilt's docstring)."""
+    room = limit - theta - omega * T
+    fastest = math.copysign(math.sqrt(2 * a * abs(room)), room)
+    slowest = -math.sqrt(2 * a * (limit + theta + omega * T))
+    return (min(max((slowest - omega) / T, -4 * a), 4 * a),
+            min(max((fastest - omega) / T, -4 * a), 4 * a))  # fmt: skip
+
+
 def test_trunk_tilt_bounds_brake_before_the_limit(robot):
     """The base turned θ about x from R_d (upright, yaw of the feet) rolling at ω: ω̇_x may
     take ω to ±sqrt(2 a (θ_max ∓ (θ + ω T))) within T (the rate that still stops at ±θ_max
@@ -288,11 +299,9 @@ def test_trunk_tilt_bounds_brake_before_the_limit(robot):
 
     for theta, omega in ((0.05, 0.3), (0.15, 0.5), (-0.1, -0.2), (0.25, 0.0), (0.0, 3.0)):
         lo, up = bounds(theta, omega)
-        room = limit - theta - omega * T
-        fastest = math.copysign(math.sqrt(2 * a * abs(room)), room)
-        slowest = -math.sqrt(2 * a * (limit + theta + omega * T))
-        assert up == pytest.approx(min(max((fastest - omega) / T, -4 * a), 4 * a), abs=1e-6)
-        assert lo == pytest.approx(min(max((slowest - omega) / T, -4 * a), 4 * a), abs=1e-6)
+        want_lo, want_up = _braking_bounds(limit, theta, omega, T, a)
+        assert up == pytest.approx(want_up, abs=1e-6)
+        assert lo == pytest.approx(want_lo, abs=1e-6)
     # rolling as fast as the upper bound allows, from upright at 1 rad/s: the trunk stops within
     # 2 % of θ_max and settles on it
     theta, omega, dt, peak = 0.0, 1.0, 0.002, 0.0
@@ -311,8 +320,6 @@ def test_trunk_tilt_bounds_the_roll_about_the_walking_direction(robot, pitch_lim
     roll gets the brake-before-the-limit bounds of the unturned robot (the formula of the test
     above); the pitch the same with ``pitch_limit`` θ_max, and ±4 a (free) with 0.  The rows of
     A are uᵀ R (ω̇ about u from the base's local ω̇)."""
-    import dataclasses
-
     layout = Layout(robot.nv)
     task = BaseOrientationTask(layout, kp=30.0, kd=11.0, weight=3.0)
     psi, limit, T, a = 0.6, 0.2, 0.05, 20.0
@@ -340,15 +347,9 @@ def test_trunk_tilt_bounds_the_roll_about_the_walking_direction(robot, pitch_lim
             if bound == 0.0:
                 assert (lo[row], up[row]) == (-4 * a, 4 * a)
                 continue
-            room = bound - theta - omega * T
-            fastest = math.copysign(math.sqrt(2 * a * abs(room)), room)
-            slowest = -math.sqrt(2 * a * (bound + theta + omega * T))
-            assert up[row] == pytest.approx(
-                min(max((fastest - omega) / T, -4 * a), 4 * a), abs=1e-6
-            )
-            assert lo[row] == pytest.approx(
-                min(max((slowest - omega) / T, -4 * a), 4 * a), abs=1e-6
-            )
+            want_lo, want_up = _braking_bounds(bound, theta, omega, T, a)
+            assert up[row] == pytest.approx(want_up, abs=1e-6)
+            assert lo[row] == pytest.approx(want_lo, abs=1e-6)
 
 
 def test_a_lean_beyond_the_legs_reach_lowers_the_references():

@@ -235,7 +235,7 @@ class MujocoBackend:
         wrenches = self._cfrc_ext[self._sole_bodies]
         self._sole_wrenches = wrenches  # (a copy: fancy indexing) for contacts()
         self._sole_points = self._subtree_com[self._sole_roots]
-        left, right = wrenches  # the two soles' rows: their sum as the sum over axis 0 is
+        left, right = wrenches  # the two soles' rows, added: the same sum as over axis 0
         self._applied = left[3:] + right[3:]
         self._contact_moment = left[:3] + right[:3]
         normal = wrenches[:, 5].tolist()
