@@ -70,6 +70,12 @@ def main(argv: list[str] | None = None) -> int:
         "--max-tabs", type=int, default=50, help="most watching tabs at once (default 50)"
     )
     parser.add_argument(
+        "--fig1a", choices=("stream", "panel"), default=None,
+        help="stream: Fig. 1a in a frame of its own, fed from the next free port after --port "
+        "(forward both ports through a tunnel); panel: in viser's plots, slower where the 3-D "
+        "scene renders slowly (default: stream, panel with --public-url)",
+    )  # fmt: skip
+    parser.add_argument(
         "--audience-push", action="store_true",
         help="watchers may push the robot by clicking it (one push per 3 s per tab)",
     )  # fmt: skip
@@ -127,6 +133,7 @@ def main(argv: list[str] | None = None) -> int:
             key=key,
             max_tabs=args.max_tabs,
             audience_push=args.audience_push,
+            fig1a=args.fig1a or ("panel" if args.public_url else "stream"),
         )
     except OSError as err:
         print(f"app.py: cannot listen on {args.host}:{args.port}: {err}", file=sys.stderr)
@@ -155,6 +162,11 @@ def main(argv: list[str] | None = None) -> int:
                 "do not trust (README, 'A demo for a room').",
                 flush=True,
             )
+    if dashboard.fig1a_stream is not None:
+        print(
+            f"  Fig. 1a streams from port {dashboard.fig1a_stream.port} (forward it too)",
+            flush=True,
+        )
     try:
         while True:
             time.sleep(1.0)

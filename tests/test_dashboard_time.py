@@ -34,6 +34,7 @@ from test_dashboard_browser import (  # noqa: E402
     pixels_of,
     project,
 )
+from test_fig1a import drawn_trace, fig1a_frame  # noqa: E402
 
 from dcmviz.config import Config  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
@@ -208,7 +209,12 @@ def test_keep_a_preview_then_resume_from_here_with_another_gain(page, app, shots
     assert wait_for(lambda: app.preview.kept is not None, 10)
     kept = app.preview.kept
     page.get_by_text("A: the preview at t =").first.wait_for(timeout=10_000)
-    assert all(h.series[3]["show"] for h in app.preview_plots.handles)  # A's series shown
+    # A's traces in Fig. 1a's frame as plotly.js drew them: A's DCM on the preview's times
+    frame = fig1a_frame(page)
+    assert wait_for(lambda: frame.evaluate("window.__fig1a.figure.data.length") == 12, 10)
+    for row in (1, 2, 3):
+        t, ghost = drawn_trace(frame, "A: ξ", row)
+        np.testing.assert_allclose(ghost, np.interp(t, kept.t, kept.dcm[:, row - 1]), atol=2e-5)
     assert draw.shown(app.server.scene, "/kept", (), ("kept",))  # A drawn in 3-D
     k_before = loop.session.config.control.k_xi
     type_into(page, app.controls.handles[("control", "k_xi")], "6", tab="Plan")

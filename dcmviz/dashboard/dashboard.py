@@ -38,6 +38,7 @@ from dcmviz.dashboard.aim import PushAim
 from dcmviz.dashboard.audience import Audience
 from dcmviz.dashboard.editor import CURRENT, ConfigEditor
 from dcmviz.dashboard.feasibility import FeasibilityPanel, likely_cause, setting_to_change
+from dcmviz.dashboard.fig1a import FIG1A_MODES, FigureStream, PreviewFigure, next_free_port
 from dcmviz.dashboard.guard import install_guard
 from dcmviz.dashboard.gui import Controls
 from dcmviz.dashboard.loop import HOLD_MAX_S, SimLoop
@@ -95,7 +96,11 @@ class Dashboard:
         key: str | None = None,
         max_tabs: int = 50,
         audience_push: bool = False,
+        fig1a: str = "stream",
+        fig1a_port: int = 0,
     ) -> None:
+        if fig1a not in FIG1A_MODES:
+            raise ValueError(f"fig1a: {fig1a!r} is not one of {', '.join(FIG1A_MODES)}")
         self.server = server
         self.notifier = Notifier(server)
         # presenter and watchers: in front of the guard (a watcher's message never reaches it)
@@ -164,7 +169,16 @@ class Dashboard:
         self.plot_panel = gui.add_panel()  # docked left: Fig. 1a and the live signals
         with self.plot_panel.add_tab("Preview (Fig. 1a)", viser.Icon.CHART_LINE):
             gui.add_markdown(phase_legend())
-            self.preview_plots = PreviewPlots(gui)
+            self.fig1a_stream: FigureStream | None = None
+            if fig1a == "stream":
+                self.fig1a_stream = FigureStream(
+                    server.get_host(), fig1a_port, max_streams=max_tabs + 8
+                )  # (+ the presenter's tabs)
+                self.preview_plots: PreviewFigure | PreviewPlots = PreviewFigure(
+                    gui, self.fig1a_stream
+                )
+            else:
+                self.preview_plots = PreviewPlots(gui)
         with self.plot_panel.add_tab("Live", viser.Icon.ACTIVITY):
             self.live_plot = LivePlot(gui, "y")
             self.live_handles = live_controls(
@@ -436,6 +450,8 @@ class Dashboard:
         self.preview.stop()
         self.loop.stop()
         self.audience.close()
+        if self.fig1a_stream is not None:
+            self.fig1a_stream.stop()
 
 
 def serve(
@@ -448,14 +464,18 @@ def serve(
     key: str | None = None,
     max_tabs: int = 50,
     audience_push: bool = False,
+    fig1a: str = "stream",
 ) -> tuple[viser.ViserServer, Dashboard]:
     """A viser server on ``host:port`` with the dashboard running ``config`` (from ``preset``);
-    with a ``key``, only tabs that connect with it control (:mod:`.audience`)."""
+    with a ``key``, only tabs that connect with it control (:mod:`.audience`).  ``fig1a``:
+    "stream" draws Fig. 1a in a frame of its own fed from the next free port after the
+    dashboard's (:mod:`.fig1a`), "panel" with viser's plots."""
     server = viser.ViserServer(host=host, port=port, label="dcmviz", verbose=False)
     try:
         dashboard = Dashboard(
             server, config, presets_dir=presets_dir, preset=preset, key=key,
-            max_tabs=max_tabs, audience_push=audience_push,
+            max_tabs=max_tabs, audience_push=audience_push, fig1a=fig1a,
+            fig1a_port=next_free_port(host, server.get_port() + 1) if fig1a == "stream" else 0,
         )  # fmt: skip
     except BaseException:
         server.stop()

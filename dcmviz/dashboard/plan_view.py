@@ -135,6 +135,8 @@ class PlanView:
         ``plan``), checked once per nominal plan: a footstep that step adjustment moved is the
         recovery's doing, not a setting to blame (and would change the count at every landing)."""
         data = preview_data(plan, robot.spec)
+        with self._draw_lock:  # Fig. 1a first: its frame need not wait for the 3-D scene's update
+            self.plots.draw(data)
         nominal = plan if nominal is None else nominal
         if nominal is self._checked:
             warnings = self.warnings
@@ -157,7 +159,6 @@ class PlanView:
                 self.on_warnings(warnings)
             self.draws += 1
             self.draw_gizmos()
-            self.plots.draw(data)
         return data
 
     def keep(self) -> PreviewData | None:
