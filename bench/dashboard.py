@@ -3,6 +3,7 @@
     PYTHONPATH=. python3 bench/dashboard.py [--preset presets/walk_forward.toml] [--seconds 10]
                                             [--clients 0,1,5] [--tabs 5] [--latency]
                                             [--viewport 1600x900] [--gpu-compositing]
+                                            [--fig1a stream|panel]
                                             [--screenshot PNG] [--first-view docs/dashboard.png]
                                             [--pictures docs]
 
@@ -17,11 +18,15 @@
 2. Real-time factor of the simulation (simulated / wall seconds) with the browser connected
    (target ≥ 1), and the frame rate of the scene updates (target ≥ 30 fps).
 3. Optionally a screenshot of the dashboard with the robot walking and the preview drawn.
-3b. With ``--latency``, in the browser (issue 25): input → Fig. 1a canvas, the time from the
-   input event of a Δx typed into its number box (viser sends the value then) to the first
-   animation frame in which the preview plots' canvases show other pixels (target ≤ 150 ms median on an idle machine), split by the page's and the server's
-   clocks (typed → the server's editor, editor → plots sent, sent → repainted and the page's
-   frames in between; ``time_the_server``); and scrubbing, the walk paused and the time slider swept through the buffer
+3b. With ``--latency``, in the browser (issue 25): input → Fig. 1a, the time from the input
+   event of a Δx typed into its number box (viser sends the value then) to the first animation
+   frame of Fig. 1a's own frame after plotly.js drew the new plan (target ≤ 150 ms median on an
+   idle machine), split by the page's, the server's and the frame's clocks (typed → the
+   server's editor, editor → figure published, → received, plotly.js drawing, → the next
+   animation frame; ``time_the_server``); with ``--fig1a panel`` (Fig. 1a in viser's plots) to
+   the first animation frame in which the preview plots' canvases show other pixels, split into
+   typed → editor, editor → plots sent, sent → repainted and the page's frames in between; and
+   scrubbing, the walk paused and the time slider swept through the buffer
    (the last 60 s) at 60 seeks a second: frames the scene draws per second (target ≥ 20) and
    the buffer's memory; and where a frame goes (:func:`frame_split`: as drawn, without the
    robot, without the floor grid, without both) and the page's main thread (a Chromium trace:
