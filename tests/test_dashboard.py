@@ -514,12 +514,21 @@ def test_app_serves_on_loopback() -> None:
         text=True,
     )
     try:
-        lines = OutputLines(proc.stdout).wait_for(
+        output = OutputLines(proc.stdout)
+        lines = output.wait_for(
             lambda lines: any("dcmviz dashboard:" in x for x in lines), timeout=60
         )  # (a thread reads: an app that prints nothing fails the test instead of hanging it)
         line = next((x for x in lines if "dcmviz dashboard:" in x), "")
         assert f"http://localhost:{port}" in line
         assert urllib.request.urlopen(f"http://127.0.0.1:{port}", timeout=10).status == 200
+        # Fig. 1a's stream on the next free port after the dashboard's, printed to forward it
+        lines = output.wait_for(
+            lambda lines: any("Fig. 1a streams from port" in x for x in lines), timeout=10
+        )
+        fig1a = int(next(x for x in lines if "Fig. 1a streams" in x).split("port")[1].split()[0])
+        assert port < fig1a <= port + 20
+        url = f"http://127.0.0.1:{fig1a}/plotly.min.js"
+        assert urllib.request.urlopen(url, timeout=10).status == 200
     finally:
         proc.terminate()
         proc.wait(timeout=10)

@@ -169,6 +169,27 @@ def test_a_bad_mode_is_refused_with_the_modes_allowed() -> None:
         server.stop()
 
 
+def test_panel_mode_draws_fig1a_in_viser_plots_without_a_stream() -> None:
+    """``--fig1a panel`` (the default behind a TLS proxy): viser's uPlots carry the preview."""
+    from dcmviz.dashboard import Dashboard
+    from dcmviz.dashboard.plots import PreviewPlots
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    dashboard = Dashboard(
+        server, Config().replace(sim={"backend": "lip"}), fig1a="panel", start=False
+    )
+    try:
+        assert dashboard.fig1a_stream is None and isinstance(dashboard.preview_plots, PreviewPlots)
+        data = dashboard.preview.data
+        t, v, xi = (np.asarray(a) for a in dashboard.preview_plots.handles[0].data[:3])
+        np.testing.assert_allclose(xi, np.interp(t, data.t, data.dcm[:, 0]), atol=1e-5)
+        end = np.mean([s.position[0] for s in dashboard.preview.plan.steps[-2:]])
+        assert xi[-1] == pytest.approx(end, abs=1e-3)
+    finally:
+        dashboard.stop()
+        server.stop()
+
+
 # -- in a real browser ---------------------------------------------------------------------------
 from dcmviz.dashboard.headless import CHROMIUM, launch_chromium  # noqa: E402
 
