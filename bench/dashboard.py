@@ -285,6 +285,65 @@ def input_to_frame_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndarr
     return np.array(browser_ms), np.array(server_ms)
 
 
+def visible_latency_ms(page, dashboard: Dashboard, n: int = 10) -> np.ndarray:
+    """Input → Fig. 1a changed on screen, without the page's own instrumentation: the browser's
+    screencast (CDP ``Page.startScreencast``, the compositor's output frames at half size, each
+    with its time) from the typed Δx's input event to the first frame whose Fig. 1a region
+    differs from the last frame before it.  Quantised by the screencast's frame interval
+    (~75 ms here; its PNG encoding also loads the machine)."""
+    import base64
+    import io
+
+    from PIL import Image
+
+    if dashboard.fig1a_stream is not None:
+        area = page.locator('iframe[title="Fig. 1a"]').bounding_box()
+    else:
+        area = page.locator(".uplot").first.bounding_box()
+    size = page.viewport_size
+    scale = 0.5
+    x0, y0 = int(area["x"] * scale), int(area["y"] * scale)
+    x1 = int((area["x"] + area["width"]) * scale)
+    y1 = int(min(area["y"] + area["height"], size["height"]) * scale)
+    frames: list[tuple[float, str]] = []
+    cdp = page.context.new_cdp_session(page)
+
+    def on_frame(event) -> None:
+        frames.append((event["metadata"]["timestamp"] * 1e3, event["data"]))
+        cdp.send("Page.screencastFrameAck", {"sessionId": event["sessionId"]})
+
+    def region(data: str) -> np.ndarray:
+        image = Image.open(io.BytesIO(base64.b64decode(data))).convert("L")
+        return np.asarray(image, dtype=np.int16)[y0:y1, x0:x1]
+
+    cdp.on("Page.screencastFrame", on_frame)
+    cdp.send("Page.startScreencast", {"format": "png", "maxWidth": int(size["width"] * scale),
+                                      "maxHeight": int(size["height"] * scale)})  # fmt: skip
+    uuid = dashboard.controls.handles[("gait", "step_length")]._impl.uuid
+    box = page.locator(f"[id='{uuid}']").locator("xpath=..").locator("input:not([type=hidden])")
+    origin = page.evaluate("performance.timeOrigin")
+    lengths = two_step_lengths(dashboard)
+    out = []
+    for i in range(n):
+        page.evaluate("window.__dcmvizArm()")
+        box.first.fill(str(lengths[(i + 1) % 2]))
+        box.first.press("Enter")
+        page.wait_for_function("window.__dcmvizWatch.input !== null", timeout=10_000)
+        typed = origin + page.evaluate("window.__dcmvizWatch.input")
+        page.wait_for_timeout(1200)  # (the screencast's frames arrive while Playwright waits)
+        before = [f for f in frames if f[0] < typed]
+        if before:
+            base = region(before[-1][1])
+            changed = next((f[0] for f in frames if f[0] >= typed
+                            and np.abs(region(f[1]) - base).max() > 40), None)  # fmt: skip
+            if changed is not None:
+                out.append(changed - typed)
+        frames[:] = frames[-2:]
+    cdp.send("Page.stopScreencast")
+    cdp.detach()
+    return np.array(out)
+
+
 def frame_split(page, dashboard: Dashboard, seconds: float = 4.0) -> None:
     """Where a frame of the page goes, the walk running: the median time between its animation
     frames as drawn, without the robot's meshes, without the floor grid, and without both (the
@@ -663,6 +722,13 @@ def main() -> None:
                 "frames: viser's page applies messages queued behind scene updates at its next "
                 "animation frame, and the repaint shows at the one after (each as long as the "
                 "GPU process, SwiftShader here, takes to draw the scene)"
+            )
+        seen = visible_latency_ms(page, dashboard)
+        if len(seen):
+            print(
+                f"  the same on screen (the browser's screencast, independent of the page's "
+                f"clocks; quantised by its ~75 ms frames), n={len(seen)}: median "
+                f"{np.median(seen):.0f} ms, max {seen.max():.0f} ms"
             )
         frame_split(page, dashboard)
         main_thread_split(browser, page)
