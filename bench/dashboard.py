@@ -153,11 +153,8 @@ def time_the_server() -> None:
     ConfigEditor.on_field_change, PlanView.update = on_field_change, drawn
 
 
-def input_to_canvas_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndarray, np.ndarray]:
-    """(browser ms, server ms) per change: from Δx typed in its number box (its input event) until
-    the Fig. 1a canvases change in the page; the server's part from the editor's entry to the
-    plots sent (``PreviewWorker.latency_s``)."""
-    page.evaluate(CANVAS_WATCH_JS)
+def step_length_box(page, dashboard: Dashboard):
+    """Δx's number box on the Plan tab, pop-ups closed (they may lie over the tabs)."""
     for button in page.locator("button.mantine-Notification-closeButton").all():
         try:
             button.click(timeout=2000)
@@ -168,6 +165,23 @@ def input_to_canvas_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndar
     box = page.locator(f"[id='{uuid}']").locator("xpath=..").locator("input:not([type=hidden])")
     box = box.first
     box.wait_for(state="visible", timeout=10_000)
+    return box
+
+
+def server_latency_ms(dashboard: Dashboard, seen: int) -> float:
+    """The server's part of the last change (editor → drawn), once the plan view has it."""
+    deadline = time.time() + 5
+    while len(dashboard.preview.latency_s) == seen and time.time() < deadline:
+        time.sleep(0.01)
+    return 1e3 * list(dashboard.preview.latency_s.values())[-1]
+
+
+def input_to_canvas_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndarray, np.ndarray]:
+    """(browser ms, server ms) per change: from Δx typed in its number box (its input event) until
+    the Fig. 1a canvases change in the page; the server's part from the editor's entry to the
+    plots sent (``PreviewWorker.latency_s``)."""
+    page.evaluate(CANVAS_WATCH_JS)
+    box = step_length_box(page, dashboard)
     browser_ms, server_ms, misses = [], [], 0
     split = []  # per change, ms: input → editor, editor → plots sent, sent → repainted; frames
     origin = page.evaluate("performance.timeOrigin") / 1e3  # s, the page's clock's epoch
@@ -198,10 +212,7 @@ def input_to_canvas_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndar
             between = int(((frames > sent[0]) & (frames <= repainted)).sum())
             split.append((1e3 * (entry - typed), 1e3 * (sent[0] - entry),
                           1e3 * (repainted - sent[0]), between))  # fmt: skip
-        deadline = time.time() + 5
-        while len(dashboard.preview.latency_s) == seen and time.time() < deadline:
-            time.sleep(0.01)
-        server_ms.append(1e3 * list(dashboard.preview.latency_s.values())[-1])
+        server_ms.append(server_latency_ms(dashboard, seen))
         page.wait_for_timeout(400)
     if misses:
         print(f"  {misses} of {n} changes not seen repainted within 10 s")
@@ -230,16 +241,7 @@ def input_to_frame_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndarr
     page.evaluate(CANVAS_WATCH_JS)  # (its input listener: when the typed value arrived)
     frame = page.wait_for_selector('iframe[title="Fig. 1a"]', state="attached").content_frame()
     frame.wait_for_function("window.__fig1a && window.__fig1a.drawn.length > 0", timeout=30_000)
-    for button in page.locator("button.mantine-Notification-closeButton").all():
-        try:
-            button.click(timeout=2000)
-        except Exception:  # noqa: BLE001 - closed by itself meanwhile
-            pass
-    page.get_by_role("tab", name="Plan", exact=True).click()
-    uuid = dashboard.controls.handles[("gait", "step_length")]._impl.uuid
-    box = page.locator(f"[id='{uuid}']").locator("xpath=..").locator("input:not([type=hidden])")
-    box = box.first
-    box.wait_for(state="visible", timeout=10_000)
+    box = step_length_box(page, dashboard)
     origin = page.evaluate("performance.timeOrigin")  # ms, the page's clock's epoch
     lengths = two_step_lengths(dashboard)
     browser_ms, server_ms, split, misses = [], [], [], 0
@@ -266,10 +268,7 @@ def input_to_frame_ms(page, dashboard: Dashboard, n: int = 10) -> tuple[np.ndarr
         entry = 1e3 * SERVER_TIMES["entry"][0] if SERVER_TIMES["entry"] else typed
         split.append((entry - typed, published - entry, received - published,
                       reacted - react_start, shown - reacted))  # fmt: skip
-        deadline = time.time() + 5
-        while len(dashboard.preview.latency_s) == seen and time.time() < deadline:
-            time.sleep(0.01)
-        server_ms.append(1e3 * list(dashboard.preview.latency_s.values())[-1])
+        server_ms.append(server_latency_ms(dashboard, seen))
         page.wait_for_timeout(400)
     if misses:
         print(f"  {misses} of {n} changes not seen drawn within 10 s")
@@ -319,15 +318,14 @@ def visible_latency_ms(page, dashboard: Dashboard, n: int = 10) -> np.ndarray:
     cdp.on("Page.screencastFrame", on_frame)
     cdp.send("Page.startScreencast", {"format": "png", "maxWidth": int(size["width"] * scale),
                                       "maxHeight": int(size["height"] * scale)})  # fmt: skip
-    uuid = dashboard.controls.handles[("gait", "step_length")]._impl.uuid
-    box = page.locator(f"[id='{uuid}']").locator("xpath=..").locator("input:not([type=hidden])")
+    box = step_length_box(page, dashboard)
     origin = page.evaluate("performance.timeOrigin")
     lengths = two_step_lengths(dashboard)
     out = []
     for i in range(n):
         page.evaluate("window.__dcmvizArm()")
-        box.first.fill(str(lengths[(i + 1) % 2]))
-        box.first.press("Enter")
+        box.fill(str(lengths[(i + 1) % 2]))
+        box.press("Enter")
         page.wait_for_function("window.__dcmvizWatch.input !== null", timeout=10_000)
         typed = origin + page.evaluate("window.__dcmvizWatch.input")
         page.wait_for_timeout(1200)  # (the screencast's frames arrive while Playwright waits)
