@@ -184,6 +184,7 @@ FRAME_PAGE = """<!doctype html><html><head><meta charset="utf-8"><style>
 html, body { margin: 0; font: 12px sans-serif; background: #fff; }
 #msg { color: #a33; padding: 8px; }
 </style></head><body><div id="fig"></div><div id="msg"></div><script>
+// (no mode bar: it lay over the legend; drag zooms, a double click resets)
 const W = window.__fig1a = { received: [], drawn: [], figure: null, error: null };
 const here = new URL(document.baseURI);
 const host = here.hostname.includes(':') ? '[' + here.hostname + ']' : here.hostname;
@@ -203,7 +204,7 @@ script.onload = () => {
     const m = pending; pending = null; drawing = true;
     const start = now();
     Plotly.react(div, m.figure.data, m.figure.layout,
-                 { displaylogo: false, responsive: true }).then(() => {
+                 { displaylogo: false, displayModeBar: false, responsive: true }).then(() => {
       const reacted = now();
       W.figure = m.figure; W.version = m.version;
       requestAnimationFrame(() => {
