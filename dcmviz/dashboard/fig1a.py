@@ -32,10 +32,9 @@ from dcmviz.dashboard.plots import (
     AXES,
     DCM_STROKE,
     GHOST_STROKE,
-    PLOT_TOLERANCE,
-    PREVIEW_POINTS,
     VRP_STROKE,
-    thin,
+    moved,
+    preview_series,
 )
 from dcmviz.dashboard.preview import PreviewData
 
@@ -217,8 +216,8 @@ script.onload = () => {
   events.onopen = () => { if (W.error) say(''); };
   events.onerror = () => say('Fig. 1a: the stream from ' + base + ' broke off; reconnecting…');
   events.onmessage = (e) => {
-    W.received.push([now()]);
-    pending = JSON.parse(e.data); W.received[W.received.length - 1].unshift(pending.version);
+    const at = now();
+    pending = JSON.parse(e.data); W.received.push([pending.version, at]);
     draw();
   };
 };
@@ -289,7 +288,7 @@ class PreviewFigure:
         self.handle = gui.add_html(frame_html(stream.port))
         self.ghost: PreviewData | None = None
         self._data: PreviewData | None = None
-        self._sent: list[np.ndarray] | None = None
+        self._sent: tuple[np.ndarray, ...] | None = None
         self.figure: dict | None = None  # the last figure published
 
     def set_ghost(self, ghost: PreviewData | None) -> None:
@@ -302,34 +301,14 @@ class PreviewFigure:
         """Publish the figure of ``data`` unless no sample moved by more than PLOT_TOLERANCE
         (far below a pixel: a touchdown moves the walked plan by ~1 mm)."""
         self._data = data
-        every = thin(len(data.t), PREVIEW_POINTS)
-        t = np.asarray(data.t, float)[every]
-        ghost = self.ghost
-        columns = [t]  # t, then per axis v, ξ (and A's v, ξ on these times: its ends held outside)
-        for i in range(len(AXES)):
-            columns += [data.vrp[every, i], data.dcm[every, i]]
-            if ghost is not None:
-                columns += [
-                    np.interp(t, ghost.t, ghost.vrp[:, i]),
-                    np.interp(t, ghost.t, ghost.dcm[:, i]),
-                ]
-        old = self._sent
-        if (
-            not force
-            and old is not None
-            and len(old) == len(columns)
-            and all(
-                a.shape == b.shape and (b.size == 0 or float(np.abs(a - b).max()) <= PLOT_TOLERANCE)
-                for a, b in zip(old, columns, strict=True)
-            )
-        ):
+        t, axes = preview_series(data, self.ghost)
+        columns = (t, *(c for series in axes for c in series))
+        if not force and self._sent is not None and not moved(self._sent, columns):
             return
         self._sent = columns
         x = np.round(t, DIGITS).tolist()
-        per_axis = 4 if ghost is not None else 2
         traces = []
-        for row, axis in enumerate(AXES, start=1):
-            v, xi, *kept = columns[1 + (row - 1) * per_axis : 1 + row * per_axis]
+        for row, (axis, (v, xi, *kept)) in enumerate(zip(AXES, axes, strict=True), start=1):
             traces.append(_trace("v (VRP)", axis, row, VRP_STROKE, "solid", x, v))
             traces.append(_trace("ξ (DCM)", axis, row, DCM_STROKE, "solid", x, xi))
             if kept:

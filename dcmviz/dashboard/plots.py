@@ -47,6 +47,33 @@ def f32(x: np.ndarray, every: slice) -> np.ndarray:
     return np.ascontiguousarray(np.asarray(x)[every], np.float32)
 
 
+def preview_series(
+    data: PreviewData, ghost: PreviewData | None, dtype: type = np.float64
+) -> tuple[np.ndarray, list[tuple[np.ndarray, ...]]]:
+    """Fig. 1a's samples: the times (at most about PREVIEW_POINTS, the last kept) and per axis
+    (x, y, z) the VRP and DCM there, and A's (``ghost``) on the same times (outside A's: its
+    ends held) when there is one."""
+    every = thin(len(data.t), PREVIEW_POINTS)
+    t = np.ascontiguousarray(np.asarray(data.t)[every], dtype)
+    axes = []
+    for i in range(len(AXES)):
+        series = [np.ascontiguousarray(data.vrp[every, i], dtype),
+                  np.ascontiguousarray(data.dcm[every, i], dtype)]  # fmt: skip
+        if ghost is not None:
+            series += [np.interp(t, ghost.t, ghost.vrp[:, i]).astype(dtype),
+                       np.interp(t, ghost.t, ghost.dcm[:, i]).astype(dtype)]  # fmt: skip
+        axes.append(tuple(series))
+    return t, axes
+
+
+def moved(old: tuple[np.ndarray, ...], new: tuple[np.ndarray, ...]) -> bool:
+    """True unless ``new`` has ``old``'s shapes and no sample moved by more than PLOT_TOLERANCE."""
+    return len(old) != len(new) or any(
+        a.shape != b.shape or (b.size > 0 and float(np.abs(a - b).max()) > PLOT_TOLERANCE)
+        for a, b in zip(old, new, strict=True)
+    )
+
+
 def _series(label: str, stroke: str, dash: list[float] | None = None, **extra) -> uplot.Series:
     s: dict = {"label": label, "stroke": stroke, "width": 2, **extra}
     if dash:
@@ -100,27 +127,11 @@ class PreviewPlots:
         """Replace the data of the three plots (each only if it changed by more than
         PLOT_TOLERANCE, far below a pixel: a touchdown moves the walked plan by ~1 mm)."""
         self._data = data
-        every = thin(len(data.t), PREVIEW_POINTS)
-        t = f32(data.t, every)
-        ghost = self.ghost
-        for i, handle in enumerate(self.handles):
-            v, xi = f32(data.vrp[:, i], every), f32(data.dcm[:, i], every)
-            if ghost is not None:  # on this preview's times (outside A's: its ends held)
-                gv = np.interp(t, ghost.t, ghost.vrp[:, i]).astype(np.float32)
-                gx = np.interp(t, ghost.t, ghost.dcm[:, i]).astype(np.float32)
-            else:
-                gv, gx = v, xi
-            new = (t, v, xi, gv, gx)
+        t, axes = preview_series(data, self.ghost, np.float32)
+        for handle, (v, xi, *kept) in zip(self.handles, axes, strict=True):
+            new = (t, v, xi, *(kept or (v, xi)))  # A's series hidden: B's numbers
             old = handle.data
-            if (
-                not force
-                and len(old) == 5
-                and all(
-                    np.shape(a) == b.shape
-                    and (b.size == 0 or float(np.abs(np.asarray(a) - b).max()) <= PLOT_TOLERANCE)
-                    for a, b in zip(old, new, strict=True)
-                )
-            ):
+            if not force and len(old) == 5 and not moved(tuple(map(np.asarray, old)), new):
                 continue
             handle.data = new
 
