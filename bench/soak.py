@@ -2,7 +2,7 @@
 seconds, presets switched and recordings toggled along the way (numbers printed, not asserted).
 
     PYTHONPATH=. python3 bench/soak.py [--minutes 30] [--tab ws|chromium] [--sample-s 30]
-                                       [--push-every 4] [--switch-every 180]
+                                       [--push-every 4] [--switch-every 180] [--heap fixed|glibc]
 
 Every ``--sample-s`` seconds it prints the wall minute, what runs, steps walked since the reset,
 the process RSS (MB), the cost per control tick (CPU µs of the simulation thread per tick over
@@ -38,6 +38,7 @@ import viser  # noqa: E402
 
 from dcmviz.config import config_from_dict, load_preset  # noqa: E402
 from dcmviz.dashboard import Dashboard  # noqa: E402
+from dcmviz.dashboard.heap import fix_mmap_threshold  # noqa: E402
 
 OTHER_PRESETS = ("lateral_push", "g1_walk", "stairs")
 OTHER_RUN_S = 20.0
@@ -94,12 +95,16 @@ def main() -> None:
     parser.add_argument("--push-every", type=float, default=4.0, help="s between pushes")
     parser.add_argument("--switch-every", type=float, default=180.0,
                         help="s between preset switches and recordings")  # fmt: skip
+    parser.add_argument("--heap", choices=("fixed", "glibc"), default="fixed",
+                        help="fixed: the mmap threshold held as serve() and app.py hold it; "
+                        "glibc: its dynamic default (the heap grew at robot switches)")  # fmt: skip
     args = parser.parse_args()
 
     data = load_preset(args.preset).to_dict()
     data["name"], data["pushes"] = "Soak: continuous walk", []
     data["gait"]["mode"] = "continuous"
     walk = config_from_dict(data)
+    heap = "mmap threshold fixed" if args.heap == "fixed" and fix_mmap_threshold() else "glibc"
     server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
     dashboard = Dashboard(server, walk, presets_dir=ROOT / "presets")
     port = server.get_port()
@@ -109,7 +114,8 @@ def main() -> None:
     loop, clock = dashboard.loop, SimClock(dashboard)
     print(f"soak: {args.minutes:g} min, continuous {walk.robot.model} on {walk.sim.backend}, "
           f"one {args.tab} tab, a push every {args.push_every:g} s, a preset switch and a "
-          f"recording every {args.switch_every:g} s; load average {os.getloadavg()[0]:.2f}")  # fmt: skip
+          f"recording every {args.switch_every:g} s; heap: {heap}; "
+          f"load average {os.getloadavg()[0]:.2f}")  # fmt: skip
     print(" min  running        steps  RSS MB  CPU µs/tick  wall µs/tick   RTF  records  notes")
     samples: list[tuple[float, float, float, float, bool]] = []  # min, rss, µs, rtf, main walk
     t0 = time.perf_counter()

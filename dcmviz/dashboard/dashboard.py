@@ -41,6 +41,7 @@ from dcmviz.dashboard.feasibility import FeasibilityPanel, likely_cause, setting
 from dcmviz.dashboard.fig1a import FIG1A_MODES, FigureStream, PreviewFigure, next_free_port
 from dcmviz.dashboard.guard import install_guard
 from dcmviz.dashboard.gui import Controls
+from dcmviz.dashboard.heap import fix_mmap_threshold
 from dcmviz.dashboard.loop import HOLD_MAX_S, SimLoop
 from dcmviz.dashboard.notify import Notifier
 from dcmviz.dashboard.plan_view import PlanView
@@ -469,7 +470,9 @@ def serve(
     """A viser server on ``host:port`` with the dashboard running ``config`` (from ``preset``);
     with a ``key``, only tabs that connect with it control (:mod:`.audience`).  ``fig1a``:
     "stream" draws Fig. 1a in a frame of its own fed from the next free port after the
-    dashboard's (:mod:`.fig1a`), "panel" with viser's plots."""
+    dashboard's (:mod:`.fig1a`), "panel" with viser's plots.  The process's heap is set up for
+    a long run first (:func:`.heap.fix_mmap_threshold`)."""
+    fix_mmap_threshold()
     server = viser.ViserServer(host=host, port=port, label="dcmviz", verbose=False)
     try:
         dashboard = Dashboard(
