@@ -159,7 +159,9 @@ def main() -> None:
             rss = rss_mb()
             records = len(loop.session.realised_steps())
             main_walk = running == "continuous" and other_until is None
-            samples.append((minute, rss, cost_us, rtf, main_walk))
+            timeline = loop.timeline  # full: its columns hold BUFFER_S of this walk's robot
+            full = timeline.seconds_kept() >= timeline.seconds - 0.5
+            samples.append((minute, rss, cost_us, rtf, main_walk, full))
             print(f"{minute:4.1f}  {running:<13} {loop.session.steps_completed:5d}  {rss:6.1f}  "
                   f"{cost_us:7.0f}  {wall_us:8.0f}  {rtf:4.2f}  {records:7d}  falls {loop.falls}, "
                   f"notifications {len(dashboard.notifications)}, "
@@ -171,6 +173,9 @@ def main() -> None:
     if first_cycle_min >= args.minutes - 1.0:  # no full round of presets in this run
         first_cycle_min = 2.0
     summarise(samples, max(2.0, first_cycle_min))
+    timeline = loop.timeline
+    print(f"time buffer {timeline.nbytes / 1e6:.1f} MB holding {timeline.seconds_kept():.0f} s "
+          f"of {timeline.seconds:.0f} s")  # fmt: skip
     print(
         f"peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3:.0f} MB; "
         f"load average {os.getloadavg()[0]:.2f}"
@@ -180,22 +185,30 @@ def main() -> None:
     server.stop()
 
 
-def summarise(samples: list[tuple[float, float, float, float, bool]], after_min: float) -> None:
+def summarise(
+    samples: list[tuple[float, float, float, float, bool, bool]], after_min: float
+) -> None:
     """RSS slope after ``after_min`` (every preset loaded once: each robot's models are built
     once per process, a step up, not a leak), and within each uninterrupted stretch of the
-    continuous walk (what grows with the steps walked); the cost trend of the continuous walk."""
+    continuous walk once its time buffer is full (what grows with the steps walked: a buffer
+    filling after a robot switch is bounded by its size, printed), and the slope of the RSS at
+    the stretches' ends, the buffer full (what grows with the rounds of presets); the cost
+    trend of the continuous walk."""
     a = np.array([s[:4] for s in samples]) if samples else np.zeros((0, 4))
     main = np.array([s[4] for s in samples], bool)
+    full = np.array([s[5] for s in samples], bool)
     late = a[:, 0] >= after_min
     overall = fit_slope(a[late, 0], a[late, 1]) if late.sum() >= 3 else float("nan")
     stretches, start = [], None  # runs of continuous-walk samples, the first after a switch out
     for i in range(len(a) + 1):
-        if i < len(a) and main[i]:
+        if i < len(a) and main[i] and full[i]:
             start = i if start is None else start
             continue
-        if start is not None and i - start >= 4:
-            stretches.append(slice(start + 1, i))
+        if start is not None and i - start >= 3:
+            stretches.append(slice(start, i))
         start = None
+    ends = [s.stop - 1 for s in stretches if a[s.stop - 1, 0] >= after_min]
+    floors = fit_slope(a[ends, 0], a[ends, 1]) if len(ends) >= 3 else float("nan")
     within = [(fit_slope(a[s, 0], a[s, 1]), a[s, 0][-1] - a[s, 0][0]) for s in stretches]
     weights = np.array([w for _, w in within])
     within_slope = float(np.average([v for v, _ in within], weights=weights)) if within else 0.0
@@ -204,8 +217,10 @@ def summarise(samples: list[tuple[float, float, float, float, bool]], after_min:
     q = max(1, len(walk) // 4)
     ratio = float(np.median(walk[-q:, 2]) / np.median(walk[:q, 2])) if len(walk) else float("nan")
     print(
-        f"RSS slope within the continuous walk's stretches {within_slope:+.2f} MB/min "
-        f"({len(within)} stretches, {weights.sum() if within else 0:.1f} min); over everything "
+        f"RSS slope within the continuous walk's stretches, buffer full, {within_slope:+.2f} "
+        f"MB/min ({len(within)} stretches, {weights.sum() if within else 0:.1f} min); of their "
+        f"ends after minute {after_min:.1f} {floors:+.2f} MB/min "
+        f"({', '.join(f'{a[i, 1]:.0f}' for i in ends)} MB); over everything "
         f"after minute {after_min:.1f} {overall:+.2f} MB/min; RSS {a[:, 1].min():.0f}–"
         f"{a[:, 1].max():.0f} MB.  CPU per tick of the continuous walk {cost_slope:+.2f} µs/min, "
         f"last quarter / first quarter {ratio:.3f}; real-time factor median "
