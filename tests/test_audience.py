@@ -279,7 +279,8 @@ def test_app_prints_presenter_and_watch_urls_for_a_room() -> None:
     try:
         lines = OutputLines(proc.stdout).wait_for(
             # the warning's own words: a random key may spell "TLS" too (CI: key ...qTLSbq...)
-            lambda lines: any("put a TLS proxy" in line for line in lines), timeout=120
+            lambda lines: any("put a TLS proxy" in line for line in lines),
+            timeout=120,
         )
         text = "".join(lines)
         presenter = next(line for line in lines if "presenter" in line).split()[-1]
