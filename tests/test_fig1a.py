@@ -190,6 +190,42 @@ def test_panel_mode_draws_fig1a_in_viser_plots_without_a_stream() -> None:
         server.stop()
 
 
+@pytest.mark.parametrize("where", ["PlanView", "SimView.start"])
+def test_a_dashboard_that_fails_to_build_frees_fig1a_s_port(monkeypatch, where) -> None:
+    """A construction that raises after Fig. 1a's stream is listening (a panel built after it,
+    or a thread that fails to start) stops the stream: its port is free again, no thread
+    serves it, and the walk's threads that did start are stopped."""
+    import socket
+
+    import dcmviz.dashboard.dashboard as dashboard_module
+    from dcmviz.dashboard import Dashboard
+
+    class Broken(Exception):
+        pass
+
+    def broken(*args, **kwargs):
+        raise Broken(where)
+
+    if where == "PlanView":
+        monkeypatch.setattr(dashboard_module, "PlanView", broken)
+    else:
+        monkeypatch.setattr(dashboard_module.SimView, "start", broken)
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    port = free_port()
+    before = set(threading.enumerate())
+    try:
+        with pytest.raises(Broken):
+            Dashboard(
+                server, Config().replace(sim={"backend": "lip"}), fig1a="stream", fig1a_port=port
+            )
+        left = [t.name for t in set(threading.enumerate()) - before if t.is_alive()]
+        assert not [name for name in left if name.startswith("dcmviz-")], left
+        with socket.socket() as s:  # the stream's port is free
+            s.bind(("127.0.0.1", port))
+    finally:
+        server.stop()
+
+
 # -- in a real browser ---------------------------------------------------------------------------
 from dcmviz.dashboard.headless import CHROMIUM, launch_chromium  # noqa: E402
 

@@ -102,6 +102,30 @@ class Dashboard:
     ) -> None:
         if fig1a not in FIG1A_MODES:
             raise ValueError(f"fig1a: {fig1a!r} is not one of {', '.join(FIG1A_MODES)}")
+        self.fig1a_stream: FigureStream | None = None
+        try:
+            self._build(server, config, presets_dir, session_factory, preset, key, max_tabs,
+                        audience_push, fig1a, fig1a_port)  # fmt: skip
+            if start:
+                self.start()
+        except BaseException:
+            self._abandon()
+            raise
+
+    def _abandon(self) -> None:
+        """After a construction that raised: stop what was started (the threads, Fig. 1a's
+        port, the key's log filter); the caller owns the server."""
+        if hasattr(self, "_ranges_thread"):
+            self.stop()
+            return
+        if self.fig1a_stream is not None:
+            self.fig1a_stream.stop()
+        if hasattr(self, "audience"):
+            self.audience.close()
+
+    def _build(self, server, config, presets_dir, session_factory, preset, key, max_tabs,
+               audience_push, fig1a, fig1a_port) -> None:  # fmt: skip
+        """The panels, the loop and the views (:meth:`__init__`'s arguments), nothing started."""
         self.server = server
         self.notifier = Notifier(server)
         # presenter and watchers: in front of the guard (a watcher's message never reaches it)
@@ -170,7 +194,6 @@ class Dashboard:
         self.plot_panel = gui.add_panel()  # docked left: Fig. 1a and the live signals
         with self.plot_panel.add_tab("Preview (Fig. 1a)", viser.Icon.CHART_LINE):
             gui.add_markdown(phase_legend())
-            self.fig1a_stream: FigureStream | None = None
             if fig1a == "stream":
                 self.fig1a_stream = FigureStream(
                     server.get_host(), fig1a_port, max_streams=max_tabs + 8
@@ -219,8 +242,6 @@ class Dashboard:
         self.show_config(config, preset)
         self.terrain_view.show(config)
         self.preview.update(self.loop.snapshot)  # the walk's plan, before any thread runs
-        if start:
-            self.start()
 
     def _wire(self) -> None:
         """Controls → editor → (panels, plan view); refusals put the controls back."""
