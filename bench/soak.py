@@ -117,7 +117,8 @@ def main() -> None:
           f"recording every {args.switch_every:g} s; heap: {heap}; "
           f"load average {os.getloadavg()[0]:.2f}")  # fmt: skip
     print(" min  running        steps  RSS MB  CPU µs/tick  wall µs/tick   RTF  records  notes")
-    samples: list[tuple[float, float, float, float, bool]] = []  # min, rss, µs, rtf, main walk
+    # min, rss, µs, rtf, main walk, its time buffer full
+    samples: list[tuple[float, float, float, float, bool, bool]] = []
     t0 = time.perf_counter()
     next_push, next_sample = t0 + 2.0, t0 + args.sample_s
     next_switch = t0 + args.switch_every / 2
