@@ -82,8 +82,12 @@ def test_stairs_preset_shows_the_stairs_and_talos_on_them(shots: Path) -> None:
             page.get_by_role("option", name="stairs_up").click()
             assert wait_for(lambda: dashboard.config.name == "Stairs up", timeout=10)
             assert wait_for(lambda: dashboard.loop.session.backend.name == "mujoco", timeout=60)
+            # the treads are drawn on the editor's callback thread, the walk adopted on the
+            # simulation thread: the walk may be in MuJoCo before the last box is drawn (a
+            # loaded run read 7 boxes of 10)
             boxes = dashboard.terrain_view.handles
-            assert len(boxes) == 10  # ten treads, the last one running on as the landing
+            # ten treads, the last one running on as the landing
+            assert wait_for(lambda: len(boxes) == 10, timeout=10), len(boxes)
             for i, box in enumerate(boxes):  # each from the floor to its tread, i·rise high
                 top = box.position[2] + 0.5 * box.dimensions[2]
                 assert top == pytest.approx((i + 1) * RISE)
