@@ -151,7 +151,8 @@ def test_sustained_load_passes_what_lasts_and_drops_pushes():
 def test_sustained_load_is_the_dense_scan_of_its_window_also_after_a_resume():
     """The passed load against a plain scan of the last n samples each tick (smallest magnitude
     if the sign held, the ramp rule on the window's quarters), on random walks with sign
-    changes, steps and ramps; a copy resumed from get_state mid-way continues identically."""
+    changes, steps and ramps, and on noisy held loads; a copy resumed from get_state mid-way
+    continues identically."""
     from dcmviz.dcm.sustained import RAMP_FLOOR, RAMP_TOLERANCE
 
     rng = np.random.default_rng(7)
@@ -164,6 +165,10 @@ def test_sustained_load_is_the_dense_scan_of_its_window_also_after_a_resume():
         x = x + rng.normal(0.0, 2.0, 6) + (rng.random(6) < 0.01) * rng.normal(0.0, 40.0, 6)
         if k % 300 < 100:
             x[2] = 0.5 * (k % 300)  # a ramp
+        # held loads with noise: the window's extreme leaves it, or a new sample replaces it,
+        # tick after tick (the extremes SustainedLoad keeps between ticks)
+        x[4] = 20.0 + rng.normal(0.0, 3.0)
+        x[5] = -20.0 - rng.normal(0.0, 3.0) - (5.0 if k % 97 == 0 else 0.0)
         load.update(k * dt, x[:3], x[3:])
         history = history[1:] + [x.copy()]
         window = np.array(history).T  # (6, n), oldest first

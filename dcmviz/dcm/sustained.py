@@ -51,9 +51,21 @@ class SustainedLoad:
     def _count_signs(self) -> None:
         """Per component, how many samples in the window are > 0 and < 0: the sign rule needs
         the window's min or max only for a component of one sign throughout (a held load), and
-        the counts, kept up to date per sample, say which without reading the window."""
+        the counts, kept up to date per sample, say which without reading the window.  The
+        window's min and max per component are kept with their sample's index (None: read the
+        window again), so a tick reads the window only where its extreme has just left it."""
         self._positive = (self._window > 0.0).sum(axis=1).tolist()
         self._negative = (self._window < 0.0).sum(axis=1).tolist()
+        self._lowest: list[tuple[float, int] | None] = [None] * 6
+        self._highest: list[tuple[float, int] | None] = [None] * 6
+
+    def _extreme(self, k: int, cache: list, pick) -> float:
+        """The window's min (``pick`` = argmin) or max of component k, read again if unknown."""
+        known = cache[k]
+        if known is None:
+            j = int(pick(self._window[k]))
+            known = cache[k] = (self._window.item(k, j), j)
+        return known[0]
 
     def get_state(self) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
         """A copy of the window, its index and the present values (a resume from a tick)."""
@@ -79,14 +91,24 @@ class SustainedLoad:
         window[:, i] = new
         self._i = i = (i + 1) % n  # the oldest sample is at i, the newest at i - 1
         positive, negative = self._positive, self._negative
+        lowest, highest = self._lowest, self._highest
+        slot = (i - 1) % n  # where the new sample went
         value = [0.0] * 6
         for k in range(6):
-            positive[k] += (new[k] > 0.0) - (old[k] > 0.0)
-            negative[k] += (new[k] < 0.0) - (old[k] < 0.0)
+            x = new[k]
+            positive[k] += (x > 0.0) - (old[k] > 0.0)
+            negative[k] += (x < 0.0) - (old[k] < 0.0)
+            # the extremes: the new sample replaces them if it is beyond (ties: the newer index,
+            # which leaves later); one that has just been overwritten is read again when needed
+            low, high = lowest[k], highest[k]
+            if low is not None and (x <= low[0] or low[1] == slot):
+                lowest[k] = (x, slot) if x <= low[0] else None
+            if high is not None and (x >= high[0] or high[1] == slot):
+                highest[k] = (x, slot) if x >= high[0] else None
             if positive[k] == n:  # one sign throughout: the smallest magnitude
-                value[k] = float(window[k].min())
+                value[k] = self._extreme(k, lowest, np.argmin)
             elif negative[k] == n:
-                value[k] = float(window[k].max())
+                value[k] = self._extreme(k, highest, np.argmax)
             else:
                 continue  # the sign changed (or a sample is 0): nothing held
             if n < 4:

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from dcmviz.dcm import dcm_adjustment
 from dcmviz.gait.plan import GaitPlan
 from dcmviz.gait.walk import Walk
 from dcmviz.recovery import qp
@@ -119,8 +118,8 @@ class Crossover(MultiStepTiming):
                 (1.0 - self._blend) * a + self._blend * b for a, b in zip(before, dvs, strict=True)
             ]
         delta = np.zeros(3)
-        for j, dv in enumerate(dvs, start=k):
-            delta = delta + dcm_adjustment(plan.preview, local, plan.selection(j), dv)
+        for candidate, dv in zip(candidates, dvs, strict=True):
+            delta = delta + candidate.now_leverage * dv  # (w(t)·s_j) Δv_j, eq. (34)
         target = plan.steps[k].position + dvs[0]
         retarget = walk.swing_step == k and candidates[0].fixed is None
         following = (k + 1, plan.steps[k + 1].position + dvs[1]) if len(dvs) > 1 else None

@@ -8,7 +8,6 @@ import math
 
 import numpy as np
 
-from dcmviz.dcm import dcm_adjustment
 from dcmviz.gait.plan import GaitPlan
 from dcmviz.gait.walk import Walk
 from dcmviz.recovery import qp
@@ -51,7 +50,6 @@ class MultiStep(RecoveryStrategy):
         """Δξ_adj with the next footsteps sharing ξ̃ through one QP, their present leverages
         bounded by what the CoP can still do (:meth:`capacity`)."""
         plan = walk.plan
-        preview = plan.preview
         k = plan.next_modifiable_step(t)
         if k is None:
             return NO_ADJUSTMENT
@@ -59,8 +57,9 @@ class MultiStep(RecoveryStrategy):
         self.last_slack = float(np.linalg.norm(solution.slack))
         dvs = solution.dv
         delta = np.zeros(3)
-        for j, dv in enumerate(dvs, start=k):
-            delta = delta + dcm_adjustment(preview, local, plan.selection(j), dv)
+        for candidate, dv in zip(candidates, dvs, strict=True):
+            # (w(t)·s_j) Δv_j (eq. 34, dcm_adjustment), w(t)·s_j read once by solve()
+            delta = delta + candidate.now_leverage * dv
         target = plan.steps[k].position + dvs[0]
         retarget = walk.swing_step == k and candidates[0].fixed is None
         following = (k + 1, plan.steps[k + 1].position + dvs[1]) if len(dvs) > 1 else None

@@ -133,6 +133,7 @@ class WholeBodyController:
         ax, ay = robot.foot_length / 2, robot.foot_width / 2
         self._wrench_reg = g.w_wrench_reg / mass**2
         self._moment_diag = np.array([1 / ay**2, 1 / ax**2, 1 / (ax**2 + ay**2)])
+        self._sole_rotations = tuple(np.zeros((len(SIDES), 3, 3)) for _ in range(3))  # buffers
         self._H_constant = np.diag(self._reg)  # regularisation + state-independent AᵀA
         for s in SIDES:
             i = lay.wrench[s].start
@@ -228,11 +229,16 @@ class WholeBodyController:
         np.copyto(H, self._H_constant)
         c = self._c
         c.fill(0.0)
-        for s in SIDES:
+        # the moments' regularisation R diag(m) Rᵀ of both soles as (R m) Rᵀ, in one batch
+        rotations, scaled, gram = self._sole_rotations
+        for j, s in enumerate(SIDES):
+            rotations[j] = ctx.sole_rotation[s]
+        np.multiply(rotations, self._moment_diag, out=scaled)
+        np.matmul(scaled, rotations.transpose(0, 2, 1), out=gram)
+        gram *= self._wrench_reg
+        for j, s in enumerate(SIDES):
             i = lay.wrench[s].start + 3
-            R = ctx.sole_rotation[s]
-            # R diag(m) Rᵀ as (R m) Rᵀ: the same numbers, one matrix product fewer
-            H[i : i + 3, i : i + 3] += self._wrench_reg * ((R * self._moment_diag) @ R.T)
+            H[i : i + 3, i : i + 3] += gram[j]
         weighted = self._weighted
         for task in self.tasks:
             out = task.compute(ctx, cmd)

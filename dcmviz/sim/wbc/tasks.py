@@ -120,7 +120,7 @@ class BaseOrientationTask(Task):
         """The tilt of R_d (3×3) for the present estimates, None when there is none."""
         fx, fy, _ = ctx.sustained_force.tolist()
         tx, ty, _ = ctx.sustained_moment.tolist()
-        z = float(ctx.com[2]) - min(float(p[2]) for p in ctx.sole_position.values())
+        z = ctx.com.item(2) - min(p.item(2) for p in ctx.sole_position.values())
         dx = (-z * fx - ty) / self.weight_n
         dy = (-z * fy + tx) / self.weight_n
         d = math.hypot(dx, dy)
@@ -281,10 +281,15 @@ class FootTask(Task):
             ahead = q.item(iq) + v.item(iv) * T
             lowest.append(2.0 * (lo - ahead) / TT)
             highest.append(2.0 * (hi - ahead) / TT)
-        axes = jacobian[3:, stops.v]
-        along = ((wanted @ axes) / (axes * axes).sum(axis=0)).tolist()
-        if all(lo <= a <= hi for lo, a, hi in zip(lowest, along, highest, strict=True)):
+        w0, w1, w2 = wanted.tolist()
+        for (_, iv, _, _), lo, hi in zip(stops.items, lowest, highest, strict=True):
+            a0, a1, a2 = jacobian.item(3, iv), jacobian.item(4, iv), jacobian.item(5, iv)
+            along = (w0 * a0 + w1 * a1 + w2 * a2) / (a0 * a0 + a1 * a1 + a2 * a2)
+            if not lo <= along <= hi:
+                break
+        else:
             return wanted  # no ankle joint at its stop (most ticks): nothing to limit
+        axes = jacobian[3:, stops.v]
         for i in range(len(stops.v)):  # one joint after the other (the axes need not be square)
             axis = axes[:, i]
             along_i = float(wanted @ axis) / float(axis @ axis)
