@@ -117,13 +117,7 @@ class Crossover(MultiStepTiming):
             dvs = [
                 (1.0 - self._blend) * a + self._blend * b for a, b in zip(before, dvs, strict=True)
             ]
-        delta = np.zeros(3)
-        for candidate, dv in zip(candidates, dvs, strict=True):
-            delta = delta + candidate.now_leverage * dv  # (w(t)·s_j) Δv_j, eq. (34)
-        target = plan.steps[k].position + dvs[0]
-        retarget = walk.swing_step == k and candidates[0].fixed is None
-        following = (k + 1, plan.steps[k + 1].position + dvs[1]) if len(dvs) > 1 else None
-        return Adjustment(delta, (k, target), following, retarget)
+        return self.adjustment(walk, plan, k, candidates, dvs)
 
     def shape_vrp(
         self,

@@ -55,10 +55,17 @@ class MultiStep(RecoveryStrategy):
             return NO_ADJUSTMENT
         solution, candidates = self.solve(walk, plan, t, local, k, xi_error, max_adjustment)
         self.last_slack = float(np.linalg.norm(solution.slack))
-        dvs = solution.dv
+        return self.adjustment(walk, plan, k, candidates, solution.dv)
+
+    @staticmethod
+    def adjustment(
+        walk: Walk, plan: GaitPlan, k: int, candidates: list[qp.Candidate], dvs: list[np.ndarray]
+    ) -> Adjustment:
+        """The walker's answer for footsteps k, k+1, … moved by ``dvs``: Δξ_adj = Σ_j (w(t)·s_j)
+        Δv_j (eq. 34; w(t)·s_j is each candidate's ``now_leverage``, read once by :meth:`solve`),
+        where footsteps k and k+1 land, and whether the swinging foot heads for footstep k."""
         delta = np.zeros(3)
         for candidate, dv in zip(candidates, dvs, strict=True):
-            # (w(t)·s_j) Δv_j (eq. 34, dcm_adjustment), w(t)·s_j read once by solve()
             delta = delta + candidate.now_leverage * dv
         target = plan.steps[k].position + dvs[0]
         retarget = walk.swing_step == k and candidates[0].fixed is None
