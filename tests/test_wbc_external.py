@@ -418,7 +418,8 @@ def test_the_planned_height_is_the_plans_height_rule_above_the_stance_foot():
             and abs(contact.swing_progress - 0.5) < 0.002
             and 0 < contact.step < len(plan.steps) - 1
         ):
-            h = walker._planned_height(command.t, contact.swing_side)
+            v_plan = walker.plan.preview.vrp(command.t - walker.plan.t0)
+            h = walker._planned_height(v_plan, contact.swing_side)
             seen.append((contact.step, h, heights[contact.step - 1]))
     assert len(seen) >= 2
     for k, h, expected in seen:

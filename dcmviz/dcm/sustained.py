@@ -94,6 +94,7 @@ class SustainedLoad:
         lowest, highest = self._lowest, self._highest
         slot = (i - 1) % n  # where the new sample went
         value = [0.0] * 6
+        quarters = None  # per component the window's oldest sample and its quarters, if needed
         for k in range(6):
             x = new[k]
             positive[k] += (x > 0.0) - (old[k] > 0.0)
@@ -113,10 +114,11 @@ class SustainedLoad:
                 continue  # the sign changed (or a sample is 0): nothing held
             if n < 4:
                 continue
-            row = window[k]
-            a, q1, q2, q3, e = (row.item(i % n), row.item((i + n // 4) % n),
-                                row.item((i + n // 2) % n), row.item((i + 3 * n // 4) % n),
-                                row.item((i - 1) % n))  # fmt: skip
+            if quarters is None:  # read once for every component held this tick
+                quarters = window[:, [i, (i + n // 4) % n, (i + n // 2) % n,
+                                      (i + 3 * n // 4) % n]].tolist()  # fmt: skip
+            a, q1, q2, q3 = quarters[k]
+            e = x  # the newest sample
             span = e - a
             tol = RAMP_TOLERANCE * abs(span) + RAMP_FLOOR[k // 3]
             if (
@@ -129,9 +131,10 @@ class SustainedLoad:
         if self._settle < 1.0:  # first-order lag towards the value, in place
             a = self._settle
             f, m = self.force, self.moment
-            for k in range(3):  # as floats: the same operations as on the arrays
-                f[k] += a * (value[k] - f.item(k))
-                m[k] += a * (value[3 + k] - m.item(k))
+            f0, f1, f2 = f.tolist()  # as floats: the same operations as on the arrays
+            m0, m1, m2 = m.tolist()
+            f[:] = (f0 + a * (value[0] - f0), f1 + a * (value[1] - f1), f2 + a * (value[2] - f2))
+            m[:] = (m0 + a * (value[3] - m0), m1 + a * (value[4] - m1), m2 + a * (value[5] - m2))
             return
         self.force = np.array(value[:3])
         self.moment = np.array(value[3:])

@@ -150,8 +150,11 @@ class Walker:
         shift = reference_shift(f_hat, m, b) if cfg.observer else np.zeros(3)
         if cfg.observer and state.external_moment is not None:
             shift = shift + moment_shift(state.external_moment, m)
+        preview = walk.plan.preview
+        local = t - walk.plan.t0
+        v_plan = preview.vrp(local)  # the plan's VRP now (clamped to the plan's span)
         if cfg.observer:
-            shift = self._lean_height(shift, self._planned_height(t, contact.swing_side))
+            shift = self._lean_height(shift, self._planned_height(v_plan, contact.swing_side))
         held = None
         if self.strategy.uses_held_load:
             held = np.zeros(3)
@@ -172,10 +175,12 @@ class Walker:
                 # mass put its footstep there (a G1 pushed at 2x stepped back 0.3 m)
                 contact, touched = walk.clock(t, state.feet, state.feet_yaw)
 
-        preview = walk.plan.preview
-        local = t - walk.plan.t0
+        if walk.plan.preview is not preview:  # re-timed: the same time in the new plan
+            preview = walk.plan.preview
+            local = t - walk.plan.t0
+            v_plan = preview.vrp(local)
         xi_ref = preview.dcm(local) + shift  # eq. (48)
-        v_ref = preview.vrp(local) + shift  # eq. (47)
+        v_ref = v_plan + shift  # eq. (47)
         xi = state.dcm(b)
 
         if local >= preview.duration:  # the plan has ended: stand on its final VRP (D3)
@@ -239,15 +244,13 @@ class Walker:
             shared += [walk.plan, walk.nominal_plan, walk.records, walk.planner]
         return copy.deepcopy(self, {id(x): x for x in shared})
 
-    def _planned_height(self, t: float, swing_side: str | None) -> float:
-        """The plan's VRP height (m) now above the foot whose leg reaches furthest: the stance
-        foot in single support, the lower foot in double support.  The plan has already lowered
-        it where the stride spans the legs (:func:`dcmviz.gait.height.step_heights`)."""
-        walk = self.walk
-        preview = walk.plan.preview
-        local = min(max(t - walk.plan.t0, 0.0), preview.duration)
-        feet = [f for s, f in walk.placed.items() if s != swing_side]
-        return float(preview.vrp(local)[2]) - min(float(f.position[2]) for f in feet)
+    def _planned_height(self, v_plan: np.ndarray, swing_side: str | None) -> float:
+        """The plan's VRP height (m) now (``v_plan``, the plan's VRP at this tick) above the
+        foot whose leg reaches furthest: the stance foot in single support, the lower foot in
+        double support.  The plan has already lowered it where the stride spans the legs
+        (:func:`dcmviz.gait.height.step_heights`)."""
+        feet = [f for s, f in self.walk.placed.items() if s != swing_side]
+        return float(v_plan[2]) - min(float(f.position[2]) for f in feet)
 
     def _lean_height(self, shift: np.ndarray, height: float) -> np.ndarray:
         """The reference shift with the CoM lowered where leaning away from a sustained force
