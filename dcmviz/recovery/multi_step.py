@@ -23,6 +23,7 @@ CAPACITY_MARGIN_M = 0.01  # the recovery QP's CoP stays this far inside the sole
 # walked); the soles of Talos and Romeo (0.13, 0.12 m wide) keep the 1 cm
 CAPACITY_MARGIN_SHARE = 0.2
 CAPACITY_TIME_CONSTANTS = 1.0  # τ/b: the CoP is credited with removing ε within one b
+SOLE_BOXES_KEPT = 64  # placements whose sole boxes are kept (a walk asks for a few at a time)
 LATERAL_PRIORITY = 4.0  # a VRP outside the support keeps its lateral part first (shape_vrp)
 PRIORITY_BLEND_M = 0.03  # ... blended in over this far beyond the outer foot
 
@@ -43,6 +44,7 @@ class MultiStep(RecoveryStrategy):
         self.last_slack = 0.0  # m, the recovery QP's CoP shortfall at the last tick
         # (preview, phase, VRP at the phase's start, its travel, |travel|²): _transfer_progress
         self._transfer: tuple | None = None
+        self._boxes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}  # sole_box's, by placement
 
     def adjust(
         self, walk: Walk, t: float, local: float, xi_error: np.ndarray, max_adjustment: float
@@ -142,7 +144,7 @@ class MultiStep(RecoveryStrategy):
         g = 1.0 - math.exp(-CAPACITY_TIME_CONSTANTS)
         lo = np.minimum(g * (lo - v), 0.0)
         hi = np.maximum(g * (hi - v), 0.0)
-        return qp.Capacity(np.eye(2), lo, hi)
+        return qp.Capacity(qp.EYE2, lo, hi)
 
     def _transfer_progress(self, plan: GaitPlan, local: float, contact, v: np.ndarray) -> float:
         """How far (0 → 1) the nominal VRP ``v`` (at ``local``) has moved through the present
@@ -169,11 +171,23 @@ class MultiStep(RecoveryStrategy):
         return min(max(float((v - v0) @ d) / dd, 0.0), 1.0)
 
     def sole_box(self, feet: list[Footstep]) -> tuple[np.ndarray, np.ndarray]:
-        """World-axes bounding box (lo, hi) of the soles, :func:`capacity_margin` inside."""
-        length = self.spec.foot_length_m - 2 * capacity_margin(self.spec.foot_length_m)
-        width = self.spec.foot_width_m - 2 * capacity_margin(self.spec.foot_width_m)
-        corners = np.vstack([sole_corners(f.position, f.yaw, length, width) for f in feet])
-        return corners.min(axis=0), corners.max(axis=0)
+        """World-axes bounding box (lo, hi) of the soles, :func:`capacity_margin` inside.
+
+        Kept per placement of the feet (read-only arrays): the capacity and every timing
+        candidate's capture check ask for the same few feet many times a tick (``crossover``:
+        six boxes a tick, each a handful of array calls)."""
+        key = tuple((float(f.position[0]), float(f.position[1]), float(f.yaw)) for f in feet)
+        box = self._boxes.get(key)
+        if box is None:
+            length = self.spec.foot_length_m - 2 * capacity_margin(self.spec.foot_length_m)
+            width = self.spec.foot_width_m - 2 * capacity_margin(self.spec.foot_width_m)
+            corners = np.vstack([sole_corners(f.position, f.yaw, length, width) for f in feet])
+            lo, hi = corners.min(axis=0), corners.max(axis=0)
+            lo.flags.writeable = hi.flags.writeable = False
+            if len(self._boxes) >= SOLE_BOXES_KEPT:
+                self._boxes.clear()
+            box = self._boxes[key] = (lo, hi)
+        return box
 
     def shape_vrp(
         self,
@@ -208,15 +222,15 @@ class MultiStep(RecoveryStrategy):
         yaw = math.atan2(sum(math.sin(f.yaw) for f in feet), sum(math.cos(f.yaw) for f in feet))
         c, s_ = math.cos(yaw), math.sin(yaw)
         to_local = np.array([[c, s_], [-s_ * LATERAL_PRIORITY, c * LATERAL_PRIORITY]])
+        local_v = to_local @ v[:2]
+        lateral = [float(to_local[1] @ placed[x].position[:2]) for x in SIDES]
+        beyond = max(min(lateral) - local_v[1], local_v[1] - max(lateral), 0.0)
+        if beyond == 0.0:  # between the feet: a step can take it (most ticks: no polygon)
+            return v
         corners = np.vstack(
             [sole_corners(f.position, f.yaw, self.spec.foot_length_m, self.spec.foot_width_m)
              for f in feet]
         )  # fmt: skip
-        local_v = to_local @ v[:2]
-        lateral = [float(to_local[1] @ placed[x].position[:2]) for x in SIDES]
-        beyond = max(min(lateral) - local_v[1], local_v[1] - max(lateral), 0.0)
-        if beyond == 0.0:  # between the feet: a step can take it
-            return v
         polygon = convex_hull(corners @ to_local.T)
         p, d = project_to_polygon(local_v, polygon)
         if d == 0.0:

@@ -53,6 +53,8 @@ from dcmviz.robots.feet import SIDE_SIGN, Footstep
 CONDITION_WEIGHT = 1e4  # ρ: how strongly Σ c_j Δv_j = ξ̃ (eq. 31) is asked for
 SLACK_WEIGHT = 1e7  # weight of σ, the part of ε the CoP cannot remove (``capacity``)
 _INF = 1e30
+EYE2 = np.eye(2)  # read-only: the capacity's world axes and the 2 × 2 blocks below
+EYE2.flags.writeable = False
 
 
 @dataclass(frozen=True)
@@ -139,16 +141,18 @@ def solve_full(
         return Solution([np.array([*c.fixed, 0.0]) for c in candidates], np.zeros(2), 0.0)
     lev = np.zeros((2, nx))  # Σ c_j Δv_j as a 2 × nx map
     H = np.zeros((nx, nx))
-    for i in free:
+    for i in free:  # the 2 × 2 blocks 2 ω_i I and c_i I, written by their diagonals
         j = col[i]
-        H[j : j + 2, j : j + 2] += 2.0 * omega[i] * np.eye(2)
-        lev[:, j : j + 2] = candidates[i].leverage * np.eye(2)
+        weight, leverage = 2.0 * omega[i], candidates[i].leverage
+        H[j, j] += weight
+        H[j + 1, j + 1] += weight
+        lev[0, j] = lev[1, j + 1] = leverage
     H += 2.0 * CONDITION_WEIGHT * lev.T @ lev
     f = -2.0 * CONDITION_WEIGHT * lev.T @ e
     lo = np.full(nx, -max_adjustment)
     up = np.full(nx, max_adjustment)
     if capacity is not None:
-        H[n_dv:, n_dv:] += 2.0 * SLACK_WEIGHT * np.eye(2)
+        H[n_dv:, n_dv:] += 2.0 * SLACK_WEIGHT * EYE2
         lo[n_dv:], up[n_dv:] = -_INF, _INF
     for i in free:
         if candidates[i].box is not None:
@@ -191,13 +195,13 @@ def solve_full(
                     (spec.min_step_width_m, spec.max_step_width_m),
                 )
             for axis, (low, high) in enumerate(limits):
+                if i not in col and previous_col is None:
+                    continue  # both footsteps fixed: nothing to bound (a unit row otherwise)
                 row = np.zeros(nx)
                 if i in col:
                     row[col[i] : col[i] + 2] += axes[axis]
                 if previous_col is not None:
                     row[previous_col : previous_col + 2] -= axes[axis]
-                if not row.any():
-                    continue
                 rows.append(row)
                 r_lo.append(low - base[axis])
                 r_up.append(high - base[axis])
@@ -220,7 +224,7 @@ def solve_full(
     bu = np.concatenate([up, np.array(r_up)])
     sense = np.zeros(len(bl), dtype=np.int32)
     x, _, exitflag, _ = daqp.solve(H, f, A, bu, bl, sense)
-    if exitflag not in (1, 2) or not np.all(np.isfinite(x)):
+    if exitflag not in (1, 2) or not math.isfinite(float(x.sum())):  # a NaN or inf anywhere
         x = np.zeros(nx)  # infeasible (a plan already out of reach): leave the footsteps alone
     out = []
     cost = 0.0

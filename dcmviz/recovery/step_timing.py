@@ -100,7 +100,7 @@ class MultiStepTiming(MultiStep):
         new = timing.towards(current, self._timing_target, timing.RATE * self.dt)
         phase = int(plan.preview.phase_at(local)[0])
         new[:phase] = current[:phase]  # phases already over stay as walked
-        if np.allclose(new, current, rtol=0.0, atol=1e-12):
+        if bool((np.abs(new - current) <= 1e-12).all()):  # np.allclose(atol=1e-12), rtol 0
             return None
         return timing.retimed(plan, new)
 
