@@ -300,3 +300,36 @@ def test_the_cops_credit_in_double_support_is_the_whole_sole_about_the_nominal_v
         np.testing.assert_allclose(cap.lo, -want, atol=1e-6, err_msg=f"t = {s.t:.3f}")
         seen += 1
     assert seen * s.backend.control_dt > 0.9  # the double supports of the walk were read
+
+
+def test_the_sole_box_is_the_box_of_the_soles_corners_and_kept_per_placement() -> None:
+    """MultiStep.sole_box (closed form, kept per placement) against the box of the soles' corners
+    (geometry.sole_corners, the capacity margin taken off the sole), for one and two soles at
+    random positions and yaws: within an ulp (numpy's matrix product may fuse the corners'
+    multiply-adds; at yaw 0, as on the presets, they are equal to the bit); a second call for the
+    same placement returns the kept arrays, read-only, and a different placement another box."""
+    from dcmviz.recovery import multi_step
+    from dcmviz.robots.geometry import sole_corners
+
+    robot = load_robot("talos")
+    strategy = recovery.make_strategy("multi_step", robot, None, 0.3, 0.002)
+    spec = robot.spec
+    length = spec.foot_length_m - 2 * multi_step.capacity_margin(spec.foot_length_m)
+    width = spec.foot_width_m - 2 * multi_step.capacity_margin(spec.foot_width_m)
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        feet = [
+            Footstep(side, np.array([*rng.uniform(-2.0, 2.0, 2), 0.1]), float(rng.uniform(-4, 4)))
+            for side in ("left", "right")[: int(rng.integers(1, 3))]
+        ]
+        corners = np.vstack([sole_corners(f.position, f.yaw, length, width) for f in feet])
+        lo, hi = strategy.sole_box(feet)
+        np.testing.assert_allclose(lo, corners.min(axis=0), rtol=0.0, atol=1e-15)
+        np.testing.assert_allclose(hi, corners.max(axis=0), rtol=0.0, atol=1e-15)
+        again = strategy.sole_box([Footstep(f.side, f.position.copy(), f.yaw) for f in feet])
+        assert again[0] is lo and again[1] is hi and not lo.flags.writeable
+    moved = [Footstep("left", feet[0].position + [1e-3, 0.0, 0.0], feet[0].yaw)]
+    assert strategy.sole_box(moved)[0][0] == pytest.approx(strategy.sole_box(feet[:1])[0][0] + 1e-3)
+    flat = [Footstep("left", np.array([0.3, -0.1, 0.0]), 0.0)]
+    corners = sole_corners(flat[0].position, 0.0, length, width)
+    np.testing.assert_array_equal(strategy.sole_box(flat)[0], corners.min(axis=0))

@@ -4,6 +4,7 @@ the support brought in keeping its lateral part first."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -45,6 +46,7 @@ class MultiStep(RecoveryStrategy):
         # (preview, phase, VRP at the phase's start, its travel, |travel|²): _transfer_progress
         self._transfer: tuple | None = None
         self._boxes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}  # sole_box's, by placement
+        self._kept_candidates: tuple | None = None  # _candidates' last answer and its key
 
     def adjust(
         self, walk: Walk, t: float, local: float, xi_error: np.ndarray, max_adjustment: float
@@ -87,6 +89,27 @@ class MultiStep(RecoveryStrategy):
     ) -> tuple[qp.Solution, list[qp.Candidate]]:
         """The recovery QP for ``plan`` (the walked one or a re-timed candidate) from footstep k;
         ``region`` (A, b), if given, replaces footstep k's reach box (a crossover)."""
+        candidates, capacity = self._candidates(walk, plan, t, local, k)
+        if region is not None:
+            candidates = [dataclasses.replace(candidates[0], region=region), *candidates[1:]]
+        solution = qp.solve_full(
+            candidates, plan.stance_for(k), xi_error, self.spec, max_adjustment, self.b,
+            capacity=capacity,
+        )  # fmt: skip
+        return solution, candidates
+
+    def _candidates(
+        self, walk: Walk, plan: GaitPlan, t: float, local: float, k: int
+    ) -> tuple[list[qp.Candidate], qp.Capacity]:
+        """The footsteps the QP may move (no crossover region) and the CoP's capacity for
+        ``plan`` at ``t``: the same for every QP solved on that plan in one tick (``crossover``
+        solves it uncrossed and crossed in front and behind), so they are kept for it."""
+        kept = self._kept_candidates
+        if (
+            kept is not None and kept[0] is walk and kept[1] is plan and kept[2] == t
+            and kept[3] == local and kept[4] == k
+        ):  # fmt: skip
+            return kept[5], kept[6]
         weights = plan.preview.dcm_weights(local)  # a_j(t) = w(t)·s_j (eqs. 22, 33-35)
         swing = walk.swing
         candidates = []
@@ -99,14 +122,12 @@ class MultiStep(RecoveryStrategy):
                 qp.Candidate(
                     plan.steps[j], 1.0 / plan.adjustment_gain(j),
                     plan.adjustment_instant(j) - t, fixed, self.tread_box(plan.steps[j]),
-                    float(weights @ selection), region if j == k else None,
+                    float(weights @ selection),
                 )
             )  # fmt: skip
-        solution = qp.solve_full(
-            candidates, plan.stance_for(k), xi_error, self.spec, max_adjustment, self.b,
-            capacity=self.capacity(walk, plan, t, local),
-        )  # fmt: skip
-        return solution, candidates
+        capacity = self.capacity(walk, plan, t, local)
+        self._kept_candidates = (walk, plan, t, local, k, candidates, capacity)
+        return candidates, capacity
 
     def capacity(self, walk: Walk, plan: GaitPlan, t: float, local: float) -> qp.Capacity:
         """What the CoP can still remove of ε = ξ − ξ_adj (:mod:`.qp`): an offset δ from v_ref
@@ -173,16 +194,25 @@ class MultiStep(RecoveryStrategy):
     def sole_box(self, feet: list[Footstep]) -> tuple[np.ndarray, np.ndarray]:
         """World-axes bounding box (lo, hi) of the soles, :func:`capacity_margin` inside.
 
-        Kept per placement of the feet (read-only arrays): the capacity and every timing
-        candidate's capture check ask for the same few feet many times a tick (``crossover``:
-        six boxes a tick, each a handful of array calls)."""
+        In closed form (each sole's farthest corner from its centre; within an ulp of the box
+        of :func:`sole_corners`, equal at yaw 0) and kept per placement of the feet (read-only
+        arrays): the capacity and every timing candidate's capture check ask for the same few
+        feet many times a tick (``crossover``: six boxes a tick)."""
         key = tuple((float(f.position[0]), float(f.position[1]), float(f.yaw)) for f in feet)
         box = self._boxes.get(key)
         if box is None:
-            length = self.spec.foot_length_m - 2 * capacity_margin(self.spec.foot_length_m)
-            width = self.spec.foot_width_m - 2 * capacity_margin(self.spec.foot_width_m)
-            corners = np.vstack([sole_corners(f.position, f.yaw, length, width) for f in feet])
-            lo, hi = corners.min(axis=0), corners.max(axis=0)
+            hl = 0.5 * (self.spec.foot_length_m - 2 * capacity_margin(self.spec.foot_length_m))
+            hw = 0.5 * (self.spec.foot_width_m - 2 * capacity_margin(self.spec.foot_width_m))
+            # a rectangle's box about its centre: ±(|c| hl + |s| hw, |s| hl + |c| hw), the
+            # farthest corner's offset (the corners' own min / max, sign by sign)
+            x_lo = y_lo = math.inf
+            x_hi = y_hi = -math.inf
+            for x, y, yaw in key:
+                c, s_ = abs(math.cos(yaw)), abs(math.sin(yaw))
+                ex, ey = c * hl + s_ * hw, s_ * hl + c * hw
+                x_lo, x_hi = min(x_lo, x - ex), max(x_hi, x + ex)
+                y_lo, y_hi = min(y_lo, y - ey), max(y_hi, y + ey)
+            lo, hi = np.array([x_lo, y_lo]), np.array([x_hi, y_hi])
             lo.flags.writeable = hi.flags.writeable = False
             if len(self._boxes) >= SOLE_BOXES_KEPT:
                 self._boxes.clear()

@@ -152,7 +152,8 @@ def solve_full(
     lo = np.full(nx, -max_adjustment)
     up = np.full(nx, max_adjustment)
     if capacity is not None:
-        H[n_dv:, n_dv:] += 2.0 * SLACK_WEIGHT * EYE2
+        H[n_dv, n_dv] += 2.0 * SLACK_WEIGHT  # 2 S I on σ's block, by its diagonal
+        H[n_dv + 1, n_dv + 1] += 2.0 * SLACK_WEIGHT
         lo[n_dv:], up[n_dv:] = -_INF, _INF
     for i in free:
         if candidates[i].box is not None:
@@ -194,17 +195,19 @@ def solve_full(
                     (-spec.max_step_length_m, spec.max_step_length_m),
                     (spec.min_step_width_m, spec.max_step_width_m),
                 )
-            for axis, (low, high) in enumerate(limits):
-                if i not in col and previous_col is None:
-                    continue  # both footsteps fixed: nothing to bound (a unit row otherwise)
-                row = np.zeros(nx)
-                if i in col:
-                    row[col[i] : col[i] + 2] += axes[axis]
-                if previous_col is not None:
-                    row[previous_col : previous_col + 2] -= axes[axis]
-                rows.append(row)
-                r_lo.append(low - base[axis])
-                r_up.append(high - base[axis])
+            if limits and (i in col or previous_col is not None):  # else both fixed: no rows
+                base_list = base.tolist()
+                for axis, (low, high) in enumerate(limits):
+                    a0, a1 = axes[axis].tolist()
+                    row = np.zeros(nx)  # 0 + a and 0 − a, entry by entry (a unit row)
+                    if i in col:
+                        j = col[i]
+                        row[j], row[j + 1] = a0, a1
+                    if previous_col is not None:
+                        row[previous_col], row[previous_col + 1] = -a0, -a1
+                    rows.append(row)
+                    r_lo.append(low - base_list[axis])
+                    r_up.append(high - base_list[axis])
             previous = c.nominal
             previous_col = col.get(i)
             previous_fixed = c.fixed if c.fixed is not None else np.zeros(2)
@@ -212,9 +215,11 @@ def solve_full(
         # lo ≤ R (ε0 − Σ a_j Δv_j) − σ ≤ hi: the CoP removes the rest by the end of its support
         base = capacity.axes @ eps0
         for axis in range(2):
+            a0, a1 = capacity.axes[axis].tolist()
             row = np.zeros(nx)
-            for i in free:
-                row[col[i] : col[i] + 2] = -candidates[i].now_leverage * capacity.axes[axis]
+            for i in free:  # −a_i(t) × the axis, entry by entry
+                j, a = col[i], -candidates[i].now_leverage
+                row[j], row[j + 1] = a * a0, a * a1
             row[n_dv + axis] = -1.0
             rows.append(row)
             r_lo.append(capacity.lo[axis] - base[axis])
@@ -228,12 +233,14 @@ def solve_full(
         x = np.zeros(nx)  # infeasible (a plan already out of reach): leave the footsteps alone
     out = []
     cost = 0.0
+    xs = x.tolist()
     for i, c in enumerate(candidates):
         if c.fixed is not None:
             out.append(np.array([c.fixed[0], c.fixed[1], 0.0]))
         else:
-            out.append(np.array([x[col[i]], x[col[i] + 1], 0.0]))
-            cost += omega[i] * float(x[col[i]] ** 2 + x[col[i] + 1] ** 2)
+            dx, dy = xs[col[i]], xs[col[i] + 1]
+            out.append(np.array([dx, dy, 0.0]))
+            cost += omega[i] * float(dx**2 + dy**2)
     slack = x[n_dv:].copy() if capacity is not None else np.zeros(2)
     if capacity is not None and exitflag not in (1, 2):
         slack = np.full(2, 1.0)  # unknown: as bad as it gets
