@@ -2,7 +2,8 @@
 
     python bench/robustness.py --robot NAME|PATH [--jobs N] [--json PATH] [--sim mujoco|lip]
         [--scales 0.5,1,1.5,2,2.5,3] [--starts 4] [--levels 5,10,15,20,25,30,35]
-        [--pull-sides +,-] [--recovery next_step] [--no-observer] [--only push|pull] [--ceiling]
+        [--pull-sides +,-] [--recovery next_step[,multi_step,...]] [--no-observer]
+        [--only push|pull] [--ceiling]
 
 Both scenarios are scaled by the robot's mass m and walk a gait derived from the robot's own
 numbers (``walking_config``), never tuned per robot:
@@ -29,6 +30,13 @@ robot's own numbers (the point mass at its CoM falls too), the torso push's mome
 lever-loaded point mass falls: angular momentum to take), or the whole-body layer (JSON
 ``ceiling``: scales, starts, lever_factor, and the survived starts per scale of humanoid, lever,
 com).  It answers "it falls on my robot" with where to look.
+
+``--recovery`` with several strategies (comma-separated) runs the whole bench once per strategy
+and then compares them in one table (``compare_strategies``): per strategy the starts survived
+at each push scale and the first fall of each pull side, and, where ``next_step`` (the paper's)
+is among them, which strategy falls earlier than it (issue 22: every strategy at least as
+robust as ``next_step``).  The JSON is then ``{"strategies": {name: the single run's JSON},
+"comparison": ...}``.
 
 Per start time (push) and per side (pull) it prints which levels were survived, the first
 fall, and the holes: levels that fell although a higher level of the same row was survived
@@ -585,7 +593,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--levels", type=floats, default=list(DEFAULT_LEVELS), help="pull, %% of m g")
     p.add_argument("--pull-sides", default="+,-", help="pull directions: +,- (left, right)")
     p.add_argument(
-        "--recovery", choices=("next_step", "multi_step", "multi_step_timing", "crossover")
+        "--recovery",
+        type=strategy_list,
+        metavar="NAME[,NAME...]",
+        help=f"recovery strategies, one run each, compared ({', '.join(STRATEGIES)})",
     )
     p.add_argument("--sim", choices=("mujoco", "lip"), default="mujoco",
                    help="the humanoid (mujoco) or the point mass with its numbers (lip)")  # fmt: skip
@@ -616,10 +627,29 @@ def main(argv: list[str] | None = None) -> int:
     if args.ceiling and (args.sim != "mujoco" or args.only == "pull"):
         p.error("--ceiling: the humanoid's pushes against the point mass (--sim mujoco, pushes)")
     gains = tuple((k.strip(), float(v)) for k, v in (g.split("=", 1) for g in args.gain))
+    names = args.recovery or [None]
+    if len(names) == 1:
+        out = _run(args, names[0], gains)
+    else:
+        runs = {}
+        for name in names:
+            print(f"\n===== recovery {name} =====", flush=True)
+            runs[name] = _run(args, name, gains)
+        comparison = compare_strategies(runs)
+        print("\n" + "\n".join(comparison_lines(comparison)))
+        out = {"robot": args.robot, "strategies": runs, "comparison": comparison}
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(out, indent=1, default=str))
+    return 0
 
+
+def _run(args: argparse.Namespace, recovery: str | None, gains: tuple) -> dict[str, Any]:
+    """One run of the bench (every push and pull asked) with ``control.recovery = recovery``
+    (None: the preset's); prints its tables and returns its JSON."""
     overrides = list(args.overrides)
-    if args.recovery:
-        overrides.append(f'control.recovery="{args.recovery}"')
+    if recovery:
+        overrides.append(f'control.recovery="{recovery}"')
     if args.no_observer:
         overrides.append("control.observer=false")
     base = walking_config(args.robot, args.preset, overrides, args.sim)
@@ -754,10 +784,89 @@ def main(argv: list[str] | None = None) -> int:
         print("  " + "; ".join(f"{j['joint']} ({j['limit_nm']:.0f} N m) {j['at_limit_share']:.0%}, "
                               f"peak {j['peak_share']:.2f}" for j in busy[:4]))  # fmt: skip
     print(f"\n{len(jobs)} rollouts in {wall:.0f} s wall")
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(out, indent=1, default=str))
-    return 0
+    return out
+
+
+STRATEGIES = ("next_step", "multi_step", "multi_step_timing", "crossover")
+
+
+def strategy_list(text: str) -> list[str]:
+    """``--recovery``: one strategy or several, comma-separated, each one of STRATEGIES."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    wrong = [n for n in names if n not in STRATEGIES]
+    if not names or wrong:
+        raise argparse.ArgumentTypeError(
+            f"{', '.join(wrong) or repr(text)}: not a recovery strategy; allowed: "
+            f"{', '.join(STRATEGIES)} (comma-separated for several)"
+        )
+    return list(dict.fromkeys(names))
+
+
+def compare_strategies(runs: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """Per strategy the starts survived at each push scale (counted from its rollouts) and the
+    first fall of each pull side (its summary's), and the ways each falls earlier than
+    ``next_step`` when that is among them: fewer starts at a scale, or a side's pull falling
+    at a lower level (or falling where ``next_step`` walks every level)."""
+    table: dict[str, dict[str, Any]] = {}
+    for name, run in runs.items():
+        entry: dict[str, Any] = {}
+        if "push" in run:
+            pushes = [r for r in run["rollouts"] if r["kind"] == "push"]
+            entry["push_survived_starts"] = survived_counts(pushes, run["push"]["scales"])
+        if "pull" in run:
+            entry["pull_first_fall_pct"] = {
+                row: s["first_fall"] for row, s in run["pull"]["rows"].items()
+            }
+        table[name] = entry
+    out: dict[str, Any] = {"strategies": table}
+    if "push" in next(iter(runs.values())):
+        out["push_scales"] = next(iter(runs.values()))["push"]["scales"]
+    base = table.get("next_step")
+    if base is not None:
+        weaker: dict[str, list[str]] = {}
+        for name, entry in table.items():
+            notes = []
+            for sc, n, n0 in zip(out.get("push_scales", []),
+                                 entry.get("push_survived_starts", []),
+                                 base.get("push_survived_starts", []), strict=True):  # fmt: skip
+                if n < n0:
+                    notes.append(f"push {sc:g}x: {n} starts against {n0}")
+            for row, fall in entry.get("pull_first_fall_pct", {}).items():
+                fall0 = base["pull_first_fall_pct"].get(row)
+                if fall is not None and (fall0 is None or fall < fall0):
+                    against = "none" if fall0 is None else f"{fall0:g} %"
+                    notes.append(f"{row}: falls at {fall:g} % against {against}")
+            weaker[name] = notes
+        out["weaker_than_next_step"] = weaker
+    return out
+
+
+def comparison_lines(comparison: dict[str, Any]) -> list[str]:
+    """:func:`compare_strategies` as a table, one line per strategy."""
+    scales = comparison.get("push_scales", [])
+    table = comparison["strategies"]
+    rows = sorted({row for e in table.values() for row in e.get("pull_first_fall_pct", {})})
+    head = f"{'strategy':<20}" + "".join(f"{f'{sc:g}x':>7}" for sc in scales)
+    head += "".join(f"{row:>10}" for row in rows)
+    lines = [
+        "strategies compared (push: starts survived per scale; pull: first fall, % of m g)",
+        head,
+        "-" * len(head),
+    ]
+    for name, e in table.items():
+        cells = "".join(f"{n:>7}" for n in e.get("push_survived_starts", []))
+        for row in rows:
+            fall = e.get("pull_first_fall_pct", {}).get(row)
+            cells += f"{'-' if fall is None else format(fall, 'g') + ' %':>10}"
+        lines.append(f"{name:<20}{cells}")
+    for name, notes in comparison.get("weaker_than_next_step", {}).items():
+        if notes:
+            lines.append(f"  {name} falls earlier than next_step: {'; '.join(notes)}")
+    if "weaker_than_next_step" in comparison and not any(
+        comparison["weaker_than_next_step"].values()
+    ):
+        lines.append("  every strategy is at least as robust as next_step here")
+    return lines
 
 
 if __name__ == "__main__":

@@ -330,3 +330,61 @@ def test_the_bound_lines_count_the_starts_each_scale_lies_beyond() -> None:
     apart = [row(2.2, 3.3, 2.2, 3.3), row(1.9, 2.7, 1.9, 2.7)]
     lines = rb.bound_lines(rows[:2], apart, [2.0])
     assert lines[0] == "  start 2.50s: 2.20x / 3.30x" and "without crossing" not in lines[2]
+
+
+def test_compare_strategies_counts_starts_and_first_falls_and_names_the_weaker() -> None:
+    """compare_strategies on made-up runs: starts survived per scale counted from the rollouts,
+    each pull side's first fall from the summary, and what falls earlier than next_step: fewer
+    starts at a scale, a lower first fall, or a fall where next_step walks every level."""
+    rb = robustness_bench()
+
+    def run(push_falls: dict[float, int], pull: dict[str, float | None]) -> dict:
+        rollouts = [{"kind": "push", "level": sc, "fell": k < n} for sc, n in push_falls.items()
+                    for k in range(4)]  # fmt: skip
+        rows = {row: {"first_fall": fall} for row, fall in pull.items()}
+        return {"rollouts": rollouts, "push": {"scales": [1.0, 2.0]}, "pull": {"rows": rows}}
+
+    runs = {
+        "next_step": run({1.0: 0, 2.0: 2}, {"pull +y": 25.0, "pull -y": None}),
+        "multi_step": run({1.0: 0, 2.0: 3}, {"pull +y": 15.0, "pull -y": 30.0}),
+        "crossover": run({1.0: 0, 2.0: 1}, {"pull +y": 25.0, "pull -y": None}),
+    }
+    out = rb.compare_strategies(runs)
+    assert out["strategies"]["next_step"]["push_survived_starts"] == [4, 2]
+    assert out["strategies"]["multi_step"]["push_survived_starts"] == [4, 1]
+    assert out["strategies"]["crossover"]["push_survived_starts"] == [4, 3]
+    weaker = out["weaker_than_next_step"]
+    assert weaker["next_step"] == [] and weaker["crossover"] == []
+    assert weaker["multi_step"] == ["push 2x: 1 starts against 2",
+                                    "pull +y: falls at 15 % against 25 %",
+                                    "pull -y: falls at 30 % against none"]  # fmt: skip
+    lines = rb.comparison_lines(out)
+    assert any(line.startswith("multi_step") and "15 %" in line for line in lines)
+    assert lines[-1].startswith("  multi_step falls earlier than next_step")
+
+
+def test_several_strategies_run_once_each_and_are_compared(tmp_path) -> None:
+    """--recovery next_step,multi_step on the G1's point mass (pushes at two starts, pulls on both
+    sides): one run per strategy in the JSON, each with its own control.recovery, and the
+    comparison's numbers are those of each run's own rollouts, counted here; an unknown
+    strategy in the list is refused naming the allowed ones."""
+    import json
+
+    rb = robustness_bench()
+    out = tmp_path / "strategies.json"
+    argv = ["--robot", "g1", "--sim", "lip", "--starts", "2", "--scales", "1,3",
+            "--levels", "10,40", "--recovery", "next_step,multi_step", "--json", str(out)]  # fmt: skip
+    assert rb.main(argv) == 0
+    data = json.loads(out.read_text())
+    assert list(data["strategies"]) == ["next_step", "multi_step"]
+    for name, run in data["strategies"].items():
+        assert run["recovery"] == name
+        pushes = [r for r in run["rollouts"] if r["kind"] == "push"]
+        starts = [sum(not r["fell"] for r in pushes if r["level"] == sc) for sc in (1.0, 3.0)]
+        assert data["comparison"]["strategies"][name]["push_survived_starts"] == starts
+        for row, fall in data["comparison"]["strategies"][name]["pull_first_fall_pct"].items():
+            falls = [r["level"] for r in run["rollouts"]
+                     if r["kind"] == "pull" and r["row"] == row and r["fell"]]  # fmt: skip
+            assert fall == (min(falls) if falls else None)
+    with pytest.raises(SystemExit):
+        rb.main(["--robot", "g1", "--sim", "lip", "--recovery", "next_step,sideways"])
