@@ -82,6 +82,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from dcmviz import GRAVITY  # noqa: E402
 from dcmviz.config import Config, Push  # noqa: E402
+from dcmviz.recovery import STRATEGIES  # noqa: E402
 from dcmviz.robots import load_robot  # noqa: E402
 from dcmviz.run import load_config  # noqa: E402
 
@@ -787,9 +788,6 @@ def _run(args: argparse.Namespace, recovery: str | None, gains: tuple) -> dict[s
     return out
 
 
-STRATEGIES = ("next_step", "multi_step", "multi_step_timing", "crossover")
-
-
 def strategy_list(text: str) -> list[str]:
     """``--recovery``: one strategy or several, comma-separated, each one of STRATEGIES."""
     names = [n.strip() for n in text.split(",") if n.strip()]
@@ -819,8 +817,9 @@ def compare_strategies(runs: dict[str, dict[str, Any]]) -> dict[str, Any]:
             }
         table[name] = entry
     out: dict[str, Any] = {"strategies": table}
-    if "push" in next(iter(runs.values())):
-        out["push_scales"] = next(iter(runs.values()))["push"]["scales"]
+    first = next(iter(runs.values()))
+    if "push" in first:
+        out["push_scales"] = first["push"]["scales"]
     base = table.get("next_step")
     if base is not None:
         weaker: dict[str, list[str]] = {}

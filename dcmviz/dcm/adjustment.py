@@ -43,9 +43,17 @@ def adaptation_factor(preview: Preview, t: float, phi_fa: int, selection: NDArra
     return float(preview.dcm_weights(t) @ selection) * adjustment_gain(preview, phi_fa, selection)
 
 
-def dcm_adjustment(preview: Preview, t: float, selection: NDArray, dv_adj: NDArray) -> NDArray:
-    """Δξ_adj,φ(t) = A_xi_ref_φ(t) S_adj Δv_adj (eq. 34), valid for any (e.g. clipped) Δv_adj."""
-    return float(preview.dcm_weights(t) @ selection) * np.asarray(dv_adj, dtype=float)
+def dcm_adjustment(
+    preview: Preview,
+    t: float,
+    selection: NDArray,
+    dv_adj: NDArray,
+    weights: NDArray | None = None,
+) -> NDArray:
+    """Δξ_adj,φ(t) = A_xi_ref_φ(t) S_adj Δv_adj (eq. 34), valid for any (e.g. clipped) Δv_adj;
+    ``weights``: ``preview.dcm_weights(t)`` if the caller has it already (several footsteps)."""
+    w = preview.dcm_weights(t) if weights is None else weights
+    return float(w @ selection) * np.asarray(dv_adj, dtype=float)
 
 
 def adjusted_waypoints(waypoints: NDArray, selection: NDArray, dv_adj: NDArray) -> NDArray:

@@ -14,7 +14,7 @@ from dcmviz.gait.walk import Walk
 from dcmviz.recovery import qp
 from dcmviz.recovery.base import NO_ADJUSTMENT, Adjustment, RecoveryStrategy
 from dcmviz.robots.feet import OTHER, SIDES, Footstep
-from dcmviz.robots.geometry import convex_hull, project_to_polygon, sole_corners
+from dcmviz.robots.geometry import convex_hull, project_to_polygon, sole_corners, soles_box
 
 MULTI_STEPS = 3  # footsteps sharing the DCM error
 CAPACITY_MARGIN_M = 0.01  # the recovery QP's CoP stays this far inside the soles ...
@@ -47,6 +47,13 @@ class MultiStep(RecoveryStrategy):
         self._transfer: tuple | None = None
         self._boxes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}  # sole_box's, by placement
         self._kept_candidates: tuple | None = None  # _candidates' last answer and its key
+
+    def __getstate__(self) -> dict:
+        """A copy (Walker.copy, a pickled resume) starts with empty caches: they rebuild from
+        the walk, and carrying them made every checkpoint copy up to SOLE_BOXES_KEPT boxes."""
+        state = self.__dict__.copy()
+        state["_boxes"], state["_kept_candidates"] = {}, None
+        return state
 
     def adjust(
         self, walk: Walk, t: float, local: float, xi_error: np.ndarray, max_adjustment: float
@@ -194,24 +201,17 @@ class MultiStep(RecoveryStrategy):
     def sole_box(self, feet: list[Footstep]) -> tuple[np.ndarray, np.ndarray]:
         """World-axes bounding box (lo, hi) of the soles, :func:`capacity_margin` inside.
 
-        In closed form (each sole's farthest corner from its centre; within an ulp of the box
-        of :func:`sole_corners`, equal at yaw 0) and kept per placement of the feet (read-only
+        :func:`~dcmviz.robots.geometry.soles_box`, kept per placement of the feet (read-only
         arrays): the capacity and every timing candidate's capture check ask for the same few
         feet many times a tick (``crossover``: six boxes a tick)."""
         key = tuple((float(f.position[0]), float(f.position[1]), float(f.yaw)) for f in feet)
         box = self._boxes.get(key)
         if box is None:
-            hl = 0.5 * (self.spec.foot_length_m - 2 * capacity_margin(self.spec.foot_length_m))
-            hw = 0.5 * (self.spec.foot_width_m - 2 * capacity_margin(self.spec.foot_width_m))
-            # a rectangle's box about its centre: ±(|c| hl + |s| hw, |s| hl + |c| hw), the
-            # farthest corner's offset (the corners' own min / max, sign by sign)
-            x_lo = y_lo = math.inf
-            x_hi = y_hi = -math.inf
-            for x, y, yaw in key:
-                c, s_ = abs(math.cos(yaw)), abs(math.sin(yaw))
-                ex, ey = c * hl + s_ * hw, s_ * hl + c * hw
-                x_lo, x_hi = min(x_lo, x - ex), max(x_hi, x + ex)
-                y_lo, y_hi = min(y_lo, y - ey), max(y_hi, y + ey)
+            x_lo, y_lo, x_hi, y_hi = soles_box(
+                key,
+                self.spec.foot_length_m - 2 * capacity_margin(self.spec.foot_length_m),
+                self.spec.foot_width_m - 2 * capacity_margin(self.spec.foot_width_m),
+            )
             lo, hi = np.array([x_lo, y_lo]), np.array([x_hi, y_hi])
             lo.flags.writeable = hi.flags.writeable = False
             if len(self._boxes) >= SOLE_BOXES_KEPT:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dcmviz.dcm import dcm_adjustment
 from dcmviz.gait.walk import Walk
 from dcmviz.recovery.base import NO_ADJUSTMENT, Adjustment, RecoveryStrategy
 
@@ -39,9 +40,8 @@ class NextStep(RecoveryStrategy):
             else:
                 retarget = True
         dv = target - plan.steps[k].position
-        # Δξ_adj of each footstep, (w(t)·s_j) Δv_j (eq. 34, dcm_adjustment): w(t) read once
-        weights = preview.dcm_weights(local)
-        delta = float(weights @ plan.selection(k)) * dv
+        weights = preview.dcm_weights(local)  # w(t) of eq. (34), for both footsteps
+        delta = dcm_adjustment(preview, local, plan.selection(k), dv, weights)
         residual = xi_error - dv / plan.adjustment_gain(k)
         residual[2] = 0.0
         following = None
@@ -50,6 +50,6 @@ class NextStep(RecoveryStrategy):
             stance = plan.steps[k].moved(target)  # footstep k where it will land
             target2 = self.target(plan, k2, residual, stance, max_adjustment)
             dv2 = target2 - plan.steps[k2].position
-            delta = delta + float(weights @ plan.selection(k2)) * dv2
+            delta = delta + dcm_adjustment(preview, local, plan.selection(k2), dv2, weights)
             following = (k2, target2)
         return Adjustment(delta, (k, target), following, retarget)

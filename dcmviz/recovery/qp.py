@@ -53,7 +53,7 @@ from dcmviz.robots.feet import SIDE_SIGN, Footstep
 CONDITION_WEIGHT = 1e4  # ρ: how strongly Σ c_j Δv_j = ξ̃ (eq. 31) is asked for
 SLACK_WEIGHT = 1e7  # weight of σ, the part of ε the CoP cannot remove (``capacity``)
 _INF = 1e30
-EYE2 = np.eye(2)  # read-only: the capacity's world axes and the 2 × 2 blocks below
+EYE2 = np.eye(2)  # read-only: a capacity's axes when they are the world's
 EYE2.flags.writeable = False
 
 

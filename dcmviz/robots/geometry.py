@@ -26,6 +26,24 @@ def sole_corners(position: np.ndarray, yaw: float, length: float, width: float) 
     return position[:2] + local @ rot.T
 
 
+def soles_box(
+    placements: tuple[tuple[float, float, float], ...], length: float, width: float
+) -> tuple[float, float, float, float]:
+    """(x_lo, y_lo, x_hi, y_hi): the world-axes box of sole rectangles at ``placements`` (x, y,
+    yaw).  In closed form, each sole's farthest corner from its centre ±(|c| l + |s| w, |s| l +
+    |c| w), l, w the half sizes: the corners' own min and max (:func:`sole_corners`), within an
+    ulp (a matrix product may fuse their multiply-adds; equal at yaw 0)."""
+    hl, hw = 0.5 * length, 0.5 * width
+    x_lo = y_lo = math.inf
+    x_hi = y_hi = -math.inf
+    for x, y, yaw in placements:
+        c, s = abs(math.cos(yaw)), abs(math.sin(yaw))
+        ex, ey = c * hl + s * hw, s * hl + c * hw
+        x_lo, x_hi = min(x_lo, x - ex), max(x_hi, x + ex)
+        y_lo, y_hi = min(y_lo, y - ey), max(y_hi, y + ey)
+    return x_lo, y_lo, x_hi, y_hi
+
+
 def convex_hull(points: np.ndarray) -> np.ndarray:
     """Counter-clockwise convex hull (Andrew's monotone chain) of (N, 2) points."""
     pts = sorted(map(tuple, np.round(points, 12)))

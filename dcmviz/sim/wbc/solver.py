@@ -133,7 +133,7 @@ class WholeBodyController:
         ax, ay = robot.foot_length / 2, robot.foot_width / 2
         self._wrench_reg = g.w_wrench_reg / mass**2
         self._moment_diag = np.array([1 / ay**2, 1 / ax**2, 1 / (ax**2 + ay**2)])
-        self._sole_rotations = tuple(np.zeros((len(SIDES), 3, 3)) for _ in range(3))  # buffers
+        self._moment_gram = tuple(np.zeros((len(SIDES), 3, 3)) for _ in range(3))  # R, R m, (R m)Rᵀ
         self._H_constant = np.diag(self._reg)  # regularisation + state-independent AᵀA
         for s in SIDES:
             i = lay.wrench[s].start
@@ -230,7 +230,7 @@ class WholeBodyController:
         c = self._c
         c.fill(0.0)
         # the moments' regularisation R diag(m) Rᵀ of both soles as (R m) Rᵀ, in one batch
-        rotations, scaled, gram = self._sole_rotations
+        rotations, scaled, gram = self._moment_gram
         for j, s in enumerate(SIDES):
             rotations[j] = ctx.sole_rotation[s]
         np.multiply(rotations, self._moment_diag, out=scaled)

@@ -277,17 +277,16 @@ class FootTask(Task):
         TT = T * T
         q, v = ctx.q, ctx.v
         lowest, highest = [], []
+        within = True
+        w0, w1, w2 = wanted.tolist()
         for iq, iv, lo, hi in stops.items:  # 2 (q_lo − (q + q̇ T)) / T², as floats
             ahead = q.item(iq) + v.item(iv) * T
             lowest.append(2.0 * (lo - ahead) / TT)
             highest.append(2.0 * (hi - ahead) / TT)
-        w0, w1, w2 = wanted.tolist()
-        for (_, iv, _, _), lo, hi in zip(stops.items, lowest, highest, strict=True):
             a0, a1, a2 = jacobian.item(3, iv), jacobian.item(4, iv), jacobian.item(5, iv)
             along = (w0 * a0 + w1 * a1 + w2 * a2) / (a0 * a0 + a1 * a1 + a2 * a2)
-            if not lo <= along <= hi:
-                break
-        else:
+            within = within and lowest[-1] <= along <= highest[-1]
+        if within:
             return wanted  # no ankle joint at its stop (most ticks): nothing to limit
         axes = jacobian[3:, stops.v]
         for i in range(len(stops.v)):  # one joint after the other (the axes need not be square)
