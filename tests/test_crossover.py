@@ -16,9 +16,20 @@ from helpers import rk4
 from dcmviz.config import Config, load_preset
 from dcmviz.gait import check_plan, plan_from_config
 from dcmviz.robots import load_robot
-from dcmviz.robots.crossover import touchdown_posture, touchdown_problem
+from dcmviz.robots.crossover import (
+    reach_beyond_com,
+    touchdown_exists,
+    touchdown_posture,
+    touchdown_problem,
+)
 from dcmviz.session import Session
-from dcmviz.sweep.bounds import crossed_edge_impulse, stance_edge_bound
+from dcmviz.sweep.bounds import (
+    crossed_edge_impulse,
+    crossed_reach_impulse,
+    crossover_bound,
+    reference_com,
+    stance_edge_bound,
+)
 from dcmviz.sweep.search import push_window
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,6 +64,105 @@ def test_crossed_edge_impulse_leaves_the_dcm_on_the_crossed_edge() -> None:
         assert abs(final_dcm(J, touchdown) - crossed) < 1e-9, touchdown
         assert final_dcm(1.05 * J, touchdown) > crossed + 1e-3
         assert final_dcm(0.95 * J, touchdown) < crossed - 1e-3
+
+
+@pytest.mark.parametrize(
+    ("reach_edge", "com0", "touchdown"),
+    [(0.12, -0.02, 0.15), (0.12, -0.02, 0.35), (0.5, -0.02, 0.2)],  # the last: the region binds
+)
+def test_crossed_reach_impulse_leaves_the_dcm_on_the_edge_the_legs_reach(
+    reach_edge: float, com0: float, touchdown: float
+) -> None:
+    """RK4 of the pushed LIP (ẍ = (x − p)/b² + F/m, the CoM itself) with the CoP on the stance
+    edge until the crossed foot lands, then on the nearer of the region's edge and the CoM's
+    position at the landing plus the legs' reach: at the bound's impulse the DCM ends on that
+    edge; 5 % more ends outside it, 5 % less inside."""
+    m, b, T = 90.0, 0.3, 0.2
+    stance, crossed = 0.08, 0.30
+
+    def final(impulse: float) -> tuple[float, float]:
+        F = impulse / T
+        y = np.array([com0, -com0 / b])  # x, ẋ with ξ_0 = x + b ẋ = 0
+        edge = stance
+        breaks = sorted({0.0, min(T, touchdown), max(T, touchdown)})
+        for t0, t1 in zip(breaks, breaks[1:], strict=False):
+            if t0 >= touchdown and edge == stance:
+                edge = min(crossed, y[0] + reach_edge)
+            force = F / m if t0 < T else 0.0
+            n = 3000
+
+            def f(s: np.ndarray, cop: float = edge, force: float = force) -> np.ndarray:
+                return np.array([s[1], (s[0] - cop) / b**2 + force])
+
+            y = rk4(f, y, (t1 - t0) / n, n)
+        if edge == stance:  # the foot lands as the push ends
+            edge = min(crossed, y[0] + reach_edge)
+        return y[0] + b * y[1], edge
+
+    J = crossed_reach_impulse(stance, crossed, reach_edge, com0, touchdown, m, b, T)
+    xi, edge = final(J)
+    assert abs(xi - edge) < 1e-6, (xi, edge)
+    xi, edge = final(1.05 * J)
+    assert xi > edge + 1e-3
+    xi, edge = final(0.95 * J)
+    assert xi < edge - 1e-3
+    if reach_edge > 0.4:  # the legs reach past the region: the region's bound
+        assert J == pytest.approx(crossed_edge_impulse(stance, crossed, touchdown, m, b, T))
+
+
+def test_the_reference_com_is_the_point_mass_walk_s() -> None:
+    """The CoM the crossover bound starts from (the plan's reference, ċ = (ξ_ref − c)/b from
+    standing) is where the point mass walking that plan has its CoM, to 1 mm over a walk."""
+    config = load_preset(ROOT / "presets" / "walk_forward.toml").replace(
+        pushes=[], control={"observer": False}
+    )
+    plan = plan_from_config(config)
+    s = Session(config, backend="lip")
+    for t in (1.0, 2.33, 3.91, 4.05, 5.5):
+        while s.t < t - 1e-9:
+            s.step()
+        assert np.linalg.norm(s.tick().state.com[:2] - reference_com(plan, t)) < 1e-3, t
+
+
+def test_a_crossed_sole_lands_at_most_its_reach_past_the_com() -> None:
+    """Talos: a crossed sole lands the reach past the CoM where it was found, and 2 cm further
+    past the CoM (twice the reach's resolution) at no base yaw (the posture's free coordinate)
+    at any x of either polygon, with the CoM over the stance sole or 5 or 10 cm beyond it: the
+    reach is the legs' (the pelvis hangs over the CoM), not the stance foot's, and it is smaller
+    than the region's crossing past the stance foot's centre."""
+    talos = load_robot("talos")
+    region = talos.crossover
+    reach, x, com = reach_beyond_com(talos.model, "left", region.polygons)
+    assert reach == talos.crossover_reach
+    assert 0.05 < reach < -min(float(p[:, 1].min()) for p in region.polygons)
+    assert touchdown_exists(talos.model, "left", x, com - reach, com)
+    for polygon in region.polygons:
+        for x in np.arange(polygon[:, 0].min(), polygon[:, 0].max() + 1e-9, 0.05):
+            for com in (0.0, -0.05, -0.1):
+                deeper = com - reach - 0.02
+                assert not touchdown_exists(talos.model, "left", float(x), deeper, com), (x, com)
+
+
+def test_talos_s_crossover_bound_is_its_legs_reach_from_the_com() -> None:
+    """The humanoid's crossover bound counts the legs' reach past the CoM: below the region's
+    alone (the point mass's model with the torso's lever), above the stance-edge bound."""
+    config = load_preset(ROOT / "presets" / "walk_forward.toml").replace(
+        control={"recovery": "crossover", "observer": False}
+    )
+    for phase in (0.3, 0.5):
+        edge = stance_edge_bound(config, 4, phase, 0.2, math.pi / 2, backend="mujoco")
+        with_legs = crossover_bound(config, 4, phase, 0.2, math.pi / 2, backend="mujoco")
+        start, _, _ = push_window(config, 4, phase)
+        from dcmviz.sweep import bounds
+
+        robot, pushed, lever = bounds._pushed(config, start, math.pi / 2, "mujoco", "torso", True)
+        half = 0.5 * robot.spec.foot_width_m
+        region_only = crossed_edge_impulse(
+            pushed.centre + half - pushed.xi0,
+            pushed.centre + bounds.reach_across(robot) + half - pushed.xi0,
+            pushed.landing_s, robot.spec.mass_kg, config.dcm.b, 0.2, lever,
+        )  # fmt: skip
+        assert edge < with_legs < region_only, (phase, edge, with_legs, region_only)
 
 
 def _legs_touch(robot, q: np.ndarray) -> bool:

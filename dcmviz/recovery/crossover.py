@@ -47,6 +47,9 @@ class Crossover(MultiStepTiming):
         self._mode_step: int | None = None  # the footstep ``mode`` is for
         self._from = "none"  # the choice the footholds blend away from
         self._blend = 1.0  # 0 → 1 over BLEND_S after a change of ``mode``
+        # 0 → 1 over BLEND_S after a crossed footstep landed: the commanded VRP, left as it was
+        # while that footstep crossed, is brought into the new support's lateral-first shape
+        self._landed_blend = 1.0
         self._plan_id: int | None = None  # the walked plan's nominal the step index refers to
 
     def _region(self, mode: str) -> tuple[np.ndarray, np.ndarray] | None:
@@ -74,8 +77,12 @@ class Crossover(MultiStepTiming):
             return NO_ADJUSTMENT
         if id(walk.nominal_plan) != self._plan_id or k != self._mode_step:
             # a new footstep (or a replanned horizon): it starts uncrossed
+            if self.mode != "none" and id(walk.nominal_plan) == self._plan_id:
+                self._landed_blend = 0.0  # the crossed footstep landed (no VRP jump there)
             self._plan_id, self._mode_step = id(walk.nominal_plan), k
             self.mode, self._from, self._blend = "none", "none", 1.0
+        elif self._landed_blend < 1.0:
+            self._landed_blend = min(1.0, self._landed_blend + self.dt / BLEND_S)
         frozen = walk.swing_step == k and walk.swing.frozen(t)
         crossed_now = self._crossed(walk, plan, k)
         swing = walk.swing
@@ -130,7 +137,11 @@ class Crossover(MultiStepTiming):
         lateral error, so the commanded VRP is left to the support as the paper's strategy
         leaves it.  Between the two, blended with the footholds' weight (no jump)."""
         if self.mode == "none" and self._from == "none":
-            return super().shape_vrp(v, support, placed, shift)
+            shaped = super().shape_vrp(v, support, placed, shift)
+            if self._landed_blend >= 1.0:
+                return shaped
+            w = _smoothstep(self._landed_blend)
+            return (1.0 - w) * v + w * shaped
         w = self._weight()
         crossed = v if self.mode != "none" else super().shape_vrp(v, support, placed, shift)
         uncrossed = super().shape_vrp(v, support, placed, shift) if self._from == "none" else v
@@ -138,8 +149,7 @@ class Crossover(MultiStepTiming):
 
     def _weight(self) -> float:
         """The blend's weight of the present choice: a smoothstep of the time since it changed."""
-        u = self._blend
-        return u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
+        return _smoothstep(self._blend)
 
     def _towards_stance(self, plan: GaitPlan, k: int, xi_error: np.ndarray) -> bool:
         """True when the DCM error points across, towards footstep k's stance foot (within
@@ -163,6 +173,11 @@ class Crossover(MultiStepTiming):
         c, s = np.cos(stance.yaw), np.sin(stance.yaw)
         lateral = SIDE_SIGN[step.side] * (-s * foot[0] + c * foot[1])
         return bool(lateral < self.spec.min_step_width_m - 1e-6)
+
+
+def _smoothstep(u: float) -> float:
+    """0 → 1 with zero rate and acceleration at both ends (u in [0, 1])."""
+    return u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
 
 
 def _score(solution: qp.Solution) -> float:

@@ -10,11 +10,24 @@ Each candidate is answered by a touchdown posture solved on the robot's Pinocchi
 candidate, the CoM at the standing height above the middle of the soles, the base upright and
 free to turn), accepted if every leg joint stays ``JOINT_MARGIN_RAD`` inside its range, the soles
 keep ``SOLE_GAP_M`` apart and the legs (hip → knee → ankle → sole, capsules of radius
-``LEG_RADIUS_PER_FOOT_WIDTH`` × the foot's width) do not touch.
+``LEG_RADIUS_PER_FOOT_WIDTH`` × the foot's width) do not touch.  (The whole-body QP keeps them
+``LEG_MARGIN_M`` further apart, :mod:`dcmviz.sim.wbc.legs`; with that margin here the region
+loses about 5 cm of crossing in front on Talos.)
 
 The region is two convex polygons in the stance frame, one in front of the stance foot and one
 behind it (:class:`CrossoverRegion`), each the largest convex set of a grid of feasible touchdowns
 (every grid point inside it feasible).  Derived once per robot (about a second).
+
+How far across a crossed foot can land depends on where the CoM is: the pelvis hangs above it,
+and with the feet where they are the legs form an X whose crossing closes as the pelvis moves
+away from the stance foot.  The region's touchdowns have the CoM above the middle of the soles,
+which for a foot landing across puts the CoM beyond the stance foot, where a push towards the
+stance foot may not have carried it by the time the foot lands.  :func:`reach_beyond_com` is the
+crossing the legs reach past the CoM itself (``Robot.crossover_reach``; at any base yaw, the CoM
+over the stance sole or 10 cm beyond it): on Talos 0.13 m in front of the stance foot and
+0.17 m behind it, within 1 cm wherever the CoM stands in that range (tests/test_crossover.py),
+against the 0.225 m past the stance foot's centre the region reaches.  A bound on crossing steps
+reads the CoM at the landing (:func:`dcmviz.sweep.bounds.crossover_bound_at`).
 """
 
 from __future__ import annotations
@@ -30,7 +43,9 @@ from dcmviz.robots.model import RobotModel
 JOINT_MARGIN_RAD = 0.05  # a crossed touchdown keeps each leg joint this far inside its range
 SOLE_GAP_M = 0.02  # the soles' rectangles stay this far apart
 LEG_RADIUS_PER_FOOT_WIDTH = 0.5  # legs as capsules this thick (× the sole's width)
+LEG_MARGIN_M = 0.01  # the whole-body QP keeps the capsules this far apart (not the region)
 GRID_M = 0.025  # spacing of the candidate touchdowns
+COM_BEYOND_M = -0.1  # the CoM this far beyond the stance sole too (the reach past the CoM)
 IK_ITERATIONS = 60
 
 
@@ -136,12 +151,21 @@ def leg_sample_points(rm: RobotModel, side: str) -> list[tuple[str, np.ndarray]]
 
 
 def touchdown_posture(
-    rm: RobotModel, stance: str, x: float, lateral: float, yaw: float = 0.0
+    rm: RobotModel,
+    stance: str,
+    x: float,
+    lateral: float,
+    yaw: float = 0.0,
+    com_lateral: float | None = None,
+    base_yaw: float | None = None,
+    q0: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float]:
     """Pinocchio q of the robot with its ``stance`` sole where it stands and the other sole flat
     at (``x``, ``lateral``) with ``yaw`` in the stance sole's frame, the CoM at the standing
-    height above the middle of the soles, the base upright (its yaw free): Gauss-Newton from
-    the standing posture.  Returns q and the final residual."""
+    height above the middle of the soles (or, with ``com_lateral``, halfway forward and that far
+    from the stance sole's centre towards the swinging foot's side), the base upright, its yaw
+    free (or ``base_yaw`` from the stance sole's: the posture's one free coordinate):
+    Gauss-Newton from the standing posture (or ``q0``).  Returns q and the final residual."""
     import pinocchio as pin
 
     model = rm.pin_model
@@ -156,7 +180,13 @@ def touchdown_posture(
     targets = {stance: base, swing: base * offset}
     height = float(pin.centerOfMass(model, data, q)[2] - base.translation[2])
     middle = 0.5 * (targets["left"].translation + targets["right"].translation)
+    if com_lateral is not None:  # the stance frame's lateral axis, towards the swinging side
+        side_axis = base.rotation[:, 1] * sign
+        middle = base.translation + 0.5 * x * base.rotation[:, 0] + com_lateral * side_axis
     com_goal = np.array([middle[0], middle[1], base.translation[2] + height])
+    stance_yaw = math.atan2(base.rotation[1, 0], base.rotation[0, 0])
+    if q0 is not None:
+        q = np.array(q0, dtype=float)
     residual = math.inf
     for _ in range(IK_ITERATIONS):
         pin.framesForwardKinematics(model, data, q)
@@ -172,6 +202,12 @@ def touchdown_posture(
         upright[:, 3:5] = np.eye(2)
         errors.append(roll_pitch)
         rows.append(upright)
+        if base_yaw is not None:
+            turn = pin.rpy.matrixToRpy(data.oMi[1].rotation)[2] - stance_yaw - base_yaw
+            errors.append(np.array([math.remainder(turn, 2.0 * math.pi)]))
+            row = np.zeros((1, model.nv))
+            row[0, 5] = 1.0
+            rows.append(row)
         e = np.concatenate(errors)
         residual = float(np.linalg.norm(e))
         if residual < 1e-9:
@@ -180,15 +216,23 @@ def touchdown_posture(
     return q, residual
 
 
-def touchdown_problem(rm: RobotModel, stance: str, x: float, lateral: float) -> str:
+def touchdown_problem(
+    rm: RobotModel, stance: str, x: float, lateral: float, com_lateral: float | None = None
+) -> str:
     """'' if the robot can stand with its swinging foot at (``x``, ``lateral``) in the stance
-    frame (:func:`touchdown_posture`), else what stops it."""
+    frame (:func:`touchdown_posture`, the CoM as it places it), else what stops it."""
+    q, residual = touchdown_posture(rm, stance, x, lateral, com_lateral=com_lateral)
+    if residual > 1e-6:
+        return f"no posture (residual {residual:.1e})"
+    return posture_problem(rm, q)
+
+
+def posture_problem(rm: RobotModel, q: np.ndarray) -> str:
+    """'' if the standing posture q breaks none of the region's rules (joints inside their
+    ranges, the soles and the legs apart), else the first it breaks."""
     import pinocchio as pin
 
     spec = rm.spec
-    q, residual = touchdown_posture(rm, stance, x, lateral)
-    if residual > 1e-6:
-        return f"no posture (residual {residual:.1e})"
     model = rm.pin_model
     for i, name in enumerate(rm.joint_names):
         lo = model.lowerPositionLimit[7 + i] + JOINT_MARGIN_RAD
@@ -235,6 +279,61 @@ def derive_region(rm: RobotModel, stance: str = "left") -> CrossoverRegion:
         min_width_m=spec.min_step_width_m,
         leg_radius_m=LEG_RADIUS_PER_FOOT_WIDTH * spec.foot_width_m,
     )
+
+
+YAW_STEP_RAD = 0.05  # the base yaw followed in these steps (touchdown_exists)
+YAW_STEPS = 16  # ... this many each way at most
+REACH_STEP_M = 0.01  # resolution of the reach past the CoM
+
+
+def touchdown_exists(
+    rm: RobotModel, stance: str, x: float, lateral: float, com_lateral: float | None = None
+) -> bool:
+    """Whether a touchdown at (``x``, ``lateral``) breaks none of the region's rules at *some*
+    base yaw, the posture's one free coordinate (:func:`touchdown_problem` takes the solver's
+    own): followed from the solver's answer in YAW_STEP_RAD steps both ways while the legs still
+    reach (the hip yaws' ranges end it)."""
+    import pinocchio as pin
+
+    q, residual = touchdown_posture(rm, stance, x, lateral, com_lateral=com_lateral)
+    if residual < 1e-6 and posture_problem(rm, q) == "":
+        return True
+    yaw0 = float(pin.rpy.matrixToRpy(pin.Quaternion(q[3:7]).toRotationMatrix())[2])
+    for direction in (1.0, -1.0):
+        start = q if residual < 1e-6 else None
+        for k in range(1, YAW_STEPS + 1):
+            start, res = touchdown_posture(
+                rm, stance, x, lateral, com_lateral=com_lateral,
+                base_yaw=yaw0 + direction * YAW_STEP_RAD * k, q0=start,
+            )  # fmt: skip
+            if res > 1e-6:
+                break
+            if posture_problem(rm, start) == "":
+                return True
+    return False
+
+
+def reach_beyond_com(
+    rm: RobotModel, stance: str, polygons: tuple[np.ndarray, ...]
+) -> tuple[float, float, float]:
+    """(reach, x, com): the farthest across (m past the CoM, towards the stance foot's far side)
+    a crossed sole centre lands (:func:`touchdown_exists`, any base yaw), the CoM halfway forward
+    and over the stance sole's centre or ``COM_BEYOND_M`` beyond it (where a push towards the
+    stance foot carries it), and the x (stance frame) and CoM offset where it does: per x of the
+    polygons' grid and CoM offset, the reach climbed in REACH_STEP_M steps from the best so far.
+    (0, 0, 0) without a polygon.  A few seconds on Talos."""
+    best = (0.0, 0.0, 0.0)
+    for polygon in polygons:
+        if len(polygon) < 3:
+            continue
+        lo, hi = float(polygon[:, 0].min()), float(polygon[:, 0].max())
+        for x in np.arange(lo, hi + 1e-9, GRID_M):
+            for com in (0.0, COM_BEYOND_M):
+                reach = best[0] + REACH_STEP_M
+                while touchdown_exists(rm, stance, float(x), com - reach, com):
+                    best = (reach, float(x), com)
+                    reach += REACH_STEP_M
+    return best
 
 
 def _largest_convex(feasible: dict[tuple[float, float], bool], *, front: bool) -> np.ndarray:

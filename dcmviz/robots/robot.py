@@ -101,6 +101,7 @@ class Robot:
         self._mujoco: MujocoModel | None = None
         self._visual: RobotVisual | None = None
         self._crossover: CrossoverRegion | None = None
+        self._crossover_reach: float | None = None
         self._levers: dict[str, float] = {}
 
     def __repr__(self) -> str:
@@ -143,6 +144,19 @@ class Robot:
 
                 self._crossover = derive_region(self.model)
             return self._crossover
+
+    @property
+    def crossover_reach(self) -> float:
+        """How far (m) past the CoM a crossed sole can land, across (any base yaw;
+        :func:`dcmviz.robots.crossover.reach_beyond_com`); 0 without a crossover region.
+        Derived on first use (under a second on Talos)."""
+        region = self.crossover
+        with self._lock:
+            if self._crossover_reach is None:
+                from dcmviz.robots.crossover import reach_beyond_com
+
+                self._crossover_reach = reach_beyond_com(self.model, "left", region.polygons)[0]
+            return self._crossover_reach
 
     def push_lever_m(self, body: str) -> float:
         """Height (m) above the robot's CoM of the CoM of the body a push acts on (a push target

@@ -32,7 +32,14 @@ out as the region allows, as early as the swing may (``timing.MIN_REMAINING_S`` 
 start, and no sooner than ``timing.MIN_SS_S`` after its lift-off); from then on the CoP can sit
 on that sole's outer edge.  The crossover bound (:func:`crossover_bound`) is the largest impulse
 after which ξ is still inside that edge when the push ends and the foot is down: the DCM a single
-crossed footstep captures, the CoP on the stance edge until it lands.
+crossed footstep captures, the CoP on the stance edge until it lands.  A humanoid's legs add a
+limit the point mass has not: the pelvis hangs over the CoM, and a crossed sole lands at most
+``Robot.crossover_reach`` past the CoM (on Talos 0.13 m in front of the stance foot, 0.17 m
+behind it, against the 0.225 m past the stance foot's centre that the region reaches with the
+CoM over the middle of the soles).  So for a humanoid the crossed edge is the nearer of the region's
+and the CoM's at the landing plus that reach (:func:`crossed_reach_impulse`, the CoM from ċ =
+(ξ − c)/b, the reference CoM at the push's start), the landing at any instant from the earliest
+on (a later one lets the CoM get further out).
 
 Both assume the stance foot lifts only once the other foot holds ξ (a walker's rule: its single
 supports of at least ``timing.MIN_SS_S`` need it).  What no footsteps can do at all, for a push of
@@ -104,6 +111,69 @@ def crossed_edge_impulse(
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if xi_end(mid) <= crossed_edge_m else (lo, mid)
     return lo * duration_s
+
+
+def crossed_reach_impulse(
+    stance_edge_m: float,
+    crossed_edge_m: float,
+    reach_edge_m: float,
+    com_m: float,
+    landing_s: float,
+    mass_kg: float,
+    b: float,
+    duration_s: float,
+    lever_m: float = 0.0,
+) -> float:
+    """:func:`crossed_edge_impulse` with the crossed sole's edge also at most ``reach_edge_m``
+    past the CoM at the landing (the legs' reach past the CoM plus half a sole): ξ_0 = 0, the CoM
+    ``com_m`` from it at the push's start, ċ = (ξ − c)/b.  Per piece of constant CMP p (the CoP
+    moved by the push and its lever): ξ = p + (ξ_0 − p) e^{t/b}, c = p + (c_0 − p) e^{−t/b} +
+    (ξ_0 − p) sinh(t/b); bisection on F."""
+    gain = b * b + lever_m / GRAVITY
+
+    def margin(force: float) -> float:
+        """The crossed edge minus ξ once the push is over and the foot is down."""
+        shift = gain * force / mass_kg
+        xi, com, t, edge = 0.0, com_m, 0.0, stance_edge_m
+        for t_next in sorted({min(landing_s, duration_s), max(landing_s, duration_s)}):
+            p = edge - (shift if t < duration_s else 0.0)
+            tau = t_next - t
+            grow = math.exp(tau / b)
+            com = p + (com - p) / grow + (xi - p) * 0.5 * (grow - 1.0 / grow)
+            xi = p + grow * (xi - p)
+            t = t_next
+            if t >= landing_s and edge == stance_edge_m:  # the crossed foot lands now
+                edge = min(crossed_edge_m, com + reach_edge_m)
+        return edge - xi
+
+    if margin(0.0) < 0.0:
+        return 0.0
+    lo, hi = 0.0, 1.0
+    while margin(hi) >= 0.0 and hi < 1e7:
+        hi *= 2.0
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if margin(mid) >= 0.0 else (lo, mid)
+    return lo * duration_s
+
+
+LANDING_SEARCH_S = 0.5  # a crossed landing this long after the earliest at most (the bound's max)
+LANDING_STEP_S = 0.01
+
+
+def reference_com(plan: GaitPlan, t: float, dt: float = 0.002) -> np.ndarray:
+    """The plan's reference CoM (x, y) at global time ``t``: ċ = (ξ_ref − c)/b from the plan's
+    start, where the robot stands (c = ξ_ref), exact per step for ξ_ref at its midpoint."""
+    preview = plan.preview
+    local = min(max(t - plan.t0, 0.0), preview.duration)
+    n = max(1, math.ceil(local / dt))
+    h = local / n
+    xi = preview.dcm(np.minimum((np.arange(n) + 0.5) * h, preview.duration - 1e-12))[:, :2]
+    c = preview.dcm(0.0)[:2].copy()
+    decay = math.exp(-h / preview.b)
+    for k in range(n):
+        c = xi[k] + (c - xi[k]) * decay
+    return c
 
 
 def footstep_impulse(
@@ -178,6 +248,7 @@ class PushedFoot:
     other foot)."""
 
     foot: Footstep
+    outward: np.ndarray  # (2,) the horizontal unit away from the other foot
     cos: float  # of the push's direction with ``outward`` (> 0)
     xi0: float  # ξ_ref at the push's start (m, along outward)
     centre: float  # the pushed sole's centre (m, along outward); its outer edge is half a width on
@@ -229,7 +300,7 @@ def pushed_foot(
                 return None  # ξ over the other sole: the pushed foot may lift and step out
             lift = start_s  # at the earliest
         landing = max(timing.MIN_REMAINING_S, lift + timing.MIN_SS_S - start_s)
-        return PushedFoot(foot, cos, xi0, centre, landing)
+        return PushedFoot(foot, outward, cos, xi0, centre, landing)
     return None
 
 
@@ -315,10 +386,20 @@ def crossover_bound_at(
     spec = robot.spec
     farthest = reach_across(robot)
     centre, half, xi0 = pushed.centre, 0.5 * spec.foot_width_m, pushed.xi0
-    return crossed_edge_impulse(
-        centre + half - xi0, centre + farthest + half - xi0, pushed.landing_s, spec.mass_kg,
-        config.dcm.b, duration_s, lever,
-    ) / pushed.cos  # fmt: skip
+    b = config.dcm.b
+    if backend == "lip":  # no legs: the region alone, landing as early as it may
+        return crossed_edge_impulse(
+            centre + half - xi0, centre + farthest + half - xi0, pushed.landing_s,
+            spec.mass_kg, b, duration_s, lever,
+        ) / pushed.cos  # fmt: skip
+    plan = plan_from_config(config)
+    com = float(pushed.outward @ reference_com(plan, start_s)) - xi0
+    reach = robot.crossover_reach + half
+    landings = pushed.landing_s + np.arange(0.0, LANDING_SEARCH_S + 1e-9, LANDING_STEP_S)
+    edges = (centre + half - xi0, centre + farthest + half - xi0)
+    moved = (spec.mass_kg, b, duration_s, lever)
+    best = max(crossed_reach_impulse(*edges, reach, com, float(t), *moved) for t in landings)
+    return best / pushed.cos
 
 
 def crossover_bound(

@@ -119,8 +119,9 @@ def table(result: dict[str, Any]) -> str:
             )
         if crossed := _by_direction(result, "crossover_bound_ns"):
             lines.append(
-                "with a footstep across the stance foot (inside the robot's crossover region, "
-                "landing as early as it may; dcmviz.sweep.bounds) at most: " + _listed(crossed)
+                "with a footstep across the stance foot (inside the robot's crossover region; a "
+                "humanoid's at most its legs' reach past the CoM at the landing; "
+                "dcmviz.sweep.bounds) at most: " + _listed(crossed)
             )
         reached_at = {f"{d:.1f}": cells for d, cells in by_dir.items()}
         for d, v in bound:

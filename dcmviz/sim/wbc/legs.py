@@ -5,7 +5,7 @@ knee → ankle → sole, radius ``r`` = half the sole's width).  Here each capsu
 by points fixed on its body (``Robot.leg_frames``, Pinocchio operational frames), and the
 ``ROWS`` closest left/right pairs closer than ``ACTIVE_M`` beyond the least distance get a row
 like the joint ranges' (:class:`~dcmviz.sim.wbc.constraints.JointLimits`): the distance d between
-the two points, projected a horizon T ahead, stays above d_min = 2 r + ``MARGIN_M``,
+the two points, projected a horizon T ahead, stays above d_min = 2 r + ``LEG_MARGIN_M``,
 
     d + ḋ T + ½ d̈ T² ≥ d_min,   d̈ = n · (J_a − J_b) q̈ + n · (a_a − a_b) (q̈ = 0),
 
@@ -24,6 +24,7 @@ import numpy as np
 import pinocchio as pin
 
 from dcmviz.robots import Robot
+from dcmviz.robots.crossover import LEG_MARGIN_M
 from dcmviz.robots.mujoco_model import LEG_RADIUS_PER_FOOT_WIDTH
 from dcmviz.sim.wbc.constraints import INF, Constraint
 from dcmviz.sim.wbc.context import Context
@@ -31,7 +32,6 @@ from dcmviz.sim.wbc.layout import Layout
 from dcmviz.walker.state import WalkerCommand
 
 ROWS = 6  # closest pairs constrained per tick
-MARGIN_M = 0.01  # kept beyond the capsules' touching distance
 ACTIVE_M = 0.10  # pairs within this of d_min get a row
 HORIZON_S = 0.08  # look-ahead of the distance
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -47,7 +47,7 @@ class LegClearance(Constraint):
         self.layout = layout
         self.frames = robot.leg_frames  # points along each leg's axis (Robot.leg_frames)
         radius = LEG_RADIUS_PER_FOOT_WIDTH * robot.foot_width
-        self.d_min = 2.0 * radius + MARGIN_M
+        self.d_min = 2.0 * radius + LEG_MARGIN_M  # as the crossover region's touchdowns
         self.last_distance = np.inf  # m, the closest pair's distance at the last tick
         # per-tick buffers: the points (world), their x, y, z differences and the gaps
         n_left, n_right = len(self.frames["left"]), len(self.frames["right"])
