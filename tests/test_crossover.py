@@ -23,6 +23,7 @@ from dcmviz.robots.crossover import (
     touchdown_problem,
 )
 from dcmviz.session import Session
+from dcmviz.sweep import bounds
 from dcmviz.sweep.bounds import (
     crossed_edge_impulse,
     crossed_reach_impulse,
@@ -153,9 +154,9 @@ def test_talos_s_crossover_bound_is_its_legs_reach_from_the_com() -> None:
         edge = stance_edge_bound(config, 4, phase, 0.2, math.pi / 2, backend="mujoco")
         with_legs = crossover_bound(config, 4, phase, 0.2, math.pi / 2, backend="mujoco")
         start, _, _ = push_window(config, 4, phase)
-        from dcmviz.sweep import bounds
-
-        robot, pushed, lever = bounds._pushed(config, start, math.pi / 2, "mujoco", "torso", True)
+        robot, _, pushed, lever = bounds._pushed(
+            config, start, math.pi / 2, "mujoco", "torso", True
+        )
         half = 0.5 * robot.spec.foot_width_m
         region_only = crossed_edge_impulse(
             pushed.centre + half - pushed.xi0,

@@ -321,7 +321,7 @@ def reach_beyond_com(
     and over the stance sole's centre or ``COM_BEYOND_M`` beyond it (where a push towards the
     stance foot carries it), and the x (stance frame) and CoM offset where it does: per x of the
     polygons' grid and CoM offset, the reach climbed in REACH_STEP_M steps from the best so far.
-    (0, 0, 0) without a polygon.  A few seconds on Talos."""
+    (0, 0, 0) without a polygon.  Under a second on Talos."""
     best = (0.0, 0.0, 0.0)
     for polygon in polygons:
         if len(polygon) < 3:

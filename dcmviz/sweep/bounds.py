@@ -91,26 +91,23 @@ def crossed_edge_impulse(
     from ξ_0) such that, with the CoP on the stance edge until ``touchdown_s`` and on the crossed
     foot's edge after it, ξ is inside the crossed edge once both the push is over and the foot is
     down.  ξ̇ = (ξ − p)/b + (F/m)(b + h/(g b)) (eq. 2 with the push and its lever) in closed form
-    per piece; bisection on F (ξ at the end grows with F)."""
-    gain = b * b + lever_m / GRAVITY
+    per piece; bisection on F (ξ at the end grows with F): :func:`crossed_reach_impulse` with no
+    reach from the CoM."""
+    return crossed_reach_impulse(
+        stance_edge_m, crossed_edge_m, math.inf, 0.0, touchdown_s, mass_kg, b, duration_s, lever_m
+    )
 
-    def xi_end(force: float) -> float:
-        shift = gain * force / mass_kg  # the push as a shift of the CoP, b² F/m (+ the lever's)
-        xi, t = 0.0, 0.0
-        for t_next in sorted({min(touchdown_s, duration_s), max(touchdown_s, duration_s)}):
-            cop = stance_edge_m if t < touchdown_s else crossed_edge_m
-            c = cop - (shift if t < duration_s else 0.0)
-            xi = c + math.exp((t_next - t) / b) * (xi - c)
-            t = t_next
-        return xi
 
+def _largest_force(holds) -> float:
+    """The largest F ≥ 0 (N) with ``holds(F)``, for a ``holds`` true up to some force and false
+    beyond it: doubled from 1 N until it fails (or 10⁷ N), then 80 bisections."""
     lo, hi = 0.0, 1.0
-    while xi_end(hi) <= crossed_edge_m and hi < 1e7:
+    while holds(hi) and hi < 1e7:
         hi *= 2.0
     for _ in range(80):
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if xi_end(mid) <= crossed_edge_m else (lo, mid)
-    return lo * duration_s
+        lo, hi = (mid, hi) if holds(mid) else (lo, mid)
+    return lo
 
 
 def crossed_reach_impulse(
@@ -146,15 +143,7 @@ def crossed_reach_impulse(
                 edge = min(crossed_edge_m, com + reach_edge_m)
         return edge - xi
 
-    if margin(0.0) < 0.0:
-        return 0.0
-    lo, hi = 0.0, 1.0
-    while margin(hi) >= 0.0 and hi < 1e7:
-        hi *= 2.0
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if margin(mid) >= 0.0 else (lo, mid)
-    return lo * duration_s
+    return _largest_force(lambda force: margin(force) >= 0.0) * duration_s
 
 
 LANDING_SEARCH_S = 0.5  # a crossed landing this long after the earliest at most (the bound's max)
@@ -232,13 +221,7 @@ def footstep_impulse(
                 return xi - cop > (grow * a1 + a2) / (grow * grow - 1.0)
         return True  # not reached: the chain is endless
 
-    lo, hi = 0.0, 1.0
-    while not lost(hi) and hi < 1e7:
-        hi *= 2.0
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if not lost(mid) else (lo, mid)
-    return lo * duration_s
+    return _largest_force(lambda force: not lost(force)) * duration_s
 
 
 @dataclass(frozen=True)
@@ -306,15 +289,16 @@ def pushed_foot(
 
 def _pushed(config: Config, start_s: float, angle_rad: float, backend: str, body: str,
             moment_at_feet: bool):  # fmt: skip
-    """(robot, pushed foot, lever) of a push, or None where no bound applies: the common
-    part of the ``*_bound_at`` functions (the lever 0 for the point mass, or with the trunk
-    taking the push's moment)."""
+    """(robot, nominal plan, pushed foot, lever) of a push, or None where no bound applies: the
+    common part of the ``*_bound_at`` functions (the lever 0 for the point mass, or with the
+    trunk taking the push's moment)."""
     robot = load_robot(config.robot.model)
-    pushed = pushed_foot(plan_from_config(config), robot.spec.foot_width_m, start_s, angle_rad)
+    plan = plan_from_config(config)
+    pushed = pushed_foot(plan, robot.spec.foot_width_m, start_s, angle_rad)
     if pushed is None:
         return None
     lever = 0.0 if backend == "lip" or not moment_at_feet else robot.push_lever_m(body)
-    return robot, pushed, lever
+    return robot, plan, pushed, lever
 
 
 def stance_edge_bound_at(
@@ -337,7 +321,7 @@ def stance_edge_bound_at(
     found = _pushed(config, start_s, angle_rad, backend, body, moment_at_feet)
     if found is None:
         return None
-    robot, pushed, lever = found
+    robot, _, pushed, lever = found
     spec = robot.spec
     distance = pushed.centre + 0.5 * spec.foot_width_m - pushed.xi0
     return edge_impulse(distance, spec.mass_kg, config.dcm.b, duration_s, lever) / pushed.cos
@@ -382,7 +366,7 @@ def crossover_bound_at(
     found = _pushed(config, start_s, angle_rad, backend, body, moment_at_feet)
     if found is None or not found[0].crossover.polygons:
         return None
-    robot, pushed, lever = found
+    robot, plan, pushed, lever = found
     spec = robot.spec
     farthest = reach_across(robot)
     centre, half, xi0 = pushed.centre, 0.5 * spec.foot_width_m, pushed.xi0
@@ -392,7 +376,6 @@ def crossover_bound_at(
             centre + half - xi0, centre + farthest + half - xi0, pushed.landing_s,
             spec.mass_kg, b, duration_s, lever,
         ) / pushed.cos  # fmt: skip
-    plan = plan_from_config(config)
     com = float(pushed.outward @ reference_com(plan, start_s)) - xi0
     reach = robot.crossover_reach + half
     landings = pushed.landing_s + np.arange(0.0, LANDING_SEARCH_S + 1e-9, LANDING_STEP_S)
@@ -454,7 +437,7 @@ def footstep_bound_at(
     found = _pushed(config, start_s, angle_rad, backend, body, moment_at_feet)
     if found is None:
         return None
-    robot, pushed, lever = found
+    robot, _, pushed, lever = found
     spec = robot.spec
     distance = pushed.centre + 0.5 * spec.foot_width_m - pushed.xi0
     reach = reach_across(robot) if crossing else -spec.min_step_width_m
