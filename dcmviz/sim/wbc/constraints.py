@@ -159,6 +159,7 @@ class JointLimits(Constraint):
         self.lower = model.lowerPositionLimit[7:] + margin
         self.upper = model.upperPositionLimit[7:] - margin
         self.torque_limit = robot.torque_limit
+        self._half_torque = 0.5 * robot.torque_limit
         self.eye = np.eye(robot.nu)
         self._filled: np.ndarray | None = None  # the rows A that hold the identity already
 
@@ -170,7 +171,7 @@ class JointLimits(Constraint):
             A[:, 6 : self.layout.nv] = self.eye
             self._filled = A
         ahead = ctx.q[7:] + ctx.v[6:] * T
-        a_max = 0.5 * self.torque_limit / np.diagonal(ctx.M)[6:]
+        a_max = self._half_torque / ctx.M.diagonal()[6:]  # (0.5 τ_max) / M_jj
         TT = T * T
         np.minimum(2.0 * (self.lower - ahead) / TT, a_max, out=lo)
         np.maximum(2.0 * (self.upper - ahead) / TT, np.negative(a_max, out=a_max), out=up)
