@@ -1000,3 +1000,37 @@ def test_the_swing_path_is_drawn_and_a_crossing_goes_round_the_stance_foot(dash:
             np.testing.assert_allclose(replayed, path, atol=1e-6)
     stored = {id(timeline._plans[seq % timeline.capacity][3]) for seq, p in kept if p is not None}
     assert len(stored) == len({id(p) for _, p in kept if p is not None})
+
+
+def test_a_clicks_push_stays_on_the_status_line_from_when_it_shows(
+    dash: Dashboard, monkeypatch
+) -> None:
+    """A click's push is named on the status line for LAST_PUSH_SHOW_S from the first time the
+    line reads it, not from the click: a render thread or a page slowed by a loaded machine that
+    first reads it 10 s after the click still shows it (the browser test waited for it in vain
+    when the line was read late)."""
+    from dcmviz.dashboard import push as push_module
+
+    clock = {"now": 100.0}
+    from types import SimpleNamespace
+
+    # the push module's clock alone (time.monotonic itself is left to the rest of the process)
+    monkeypatch.setattr(push_module, "time", SimpleNamespace(monotonic=lambda: clock["now"]))
+    panel = dash.push_panel
+    assert panel.status() == ""  # nothing pushed yet
+    panel.last_push = (clock["now"], "pushed torso: 80 N towards +y for 0.20 s")
+    clock["now"] += 10.0  # read first 10 s after the click
+    for dt in (0.0, 1.0, 2.0, LAST := push_module.LAST_PUSH_SHOW_S - 0.01):
+        clock["now"] = 110.0 + dt
+        assert panel.status() == "pushed torso: 80 N towards +y for 0.20 s", dt
+    for dt in (LAST + 0.02, 5.0, 20.0):  # then gone, every later read
+        clock["now"] = 110.0 + dt
+        assert panel.status() == "", dt
+    panel.last_push = (clock["now"], "pulled torso for 1.0 s with a 900 N/m spring")  # a new one
+    clock["now"] += 3.0
+    assert panel.status().startswith("pulled torso")  # its own window, from its first read
+    clock["now"] += LAST
+    assert panel.status().startswith("pulled torso")
+    clock["now"] += 0.02
+    assert panel.status() == ""
+    assert panel.status("pulling torso: 40 N") == "pulling torso: 40 N"  # a pull goes on

@@ -16,7 +16,7 @@ from dcmviz.dashboard.loop import SimLoop
 from dcmviz.dashboard.notify import Notifier
 from dcmviz.robots import load_robot
 
-LAST_PUSH_SHOW_S = 4.0  # the status line names a click's push this long
+LAST_PUSH_SHOW_S = 4.0  # the status line names a click's push this long once it shows it
 PUSH_N_PER_KG = 150.0 / 90.27  # a click's default |F|: 150 N on the 90 kg Talos, by mass
 # a drag's spring: k = 5 N/m per kg (450 N/m on Talos: a 0.3 m pull is 135 N)
 PULL_STIFFNESS_N_PER_M_KG = 5.0
@@ -63,6 +63,7 @@ class PushPanel:
         self.clicks = 0  # clicks on the robot that reached the server
         self.drags = 0  # drags of the robot that reached the server
         self.last_push = (-math.inf, "")  # (monotonic time, what the last click pushed)
+        self._shown: tuple[float, float] | None = None  # (that time, when the status first read it)
         self.pulls: list[str] = []  # what each finished drag did (the log; the latest 50)
         self._drag: dict | None = None  # the drag in progress: body, start, peak force
         robot = load_robot(editor.config.robot.model)
@@ -214,12 +215,19 @@ class PushPanel:
             self.last_push = (time.monotonic(), text)
 
     def status(self, pulling: str = "") -> str:
-        """The last click's push or drag for a few seconds, or the pull going on ('' otherwise:
-        the Plan tab says what a click will do)."""
+        """The last click's push or drag for LAST_PUSH_SHOW_S from the first time the status
+        line reads it (as the status line's notes: a page or a render thread slowed by a loaded
+        machine still shows it that long), or the pull going on ('' otherwise: the Plan tab says
+        what a click will do)."""
         if pulling:
             return pulling
         t, text = self.last_push
-        return text if time.monotonic() - t < LAST_PUSH_SHOW_S else ""
+        if not text:
+            return ""
+        now = time.monotonic()
+        if self._shown is None or self._shown[0] != t:
+            self._shown = (t, now)
+        return text if now - self._shown[1] < LAST_PUSH_SHOW_S else ""
 
     def push(
         self, force: tuple[float, float, float], body: str, client: viser.ClientHandle | None
