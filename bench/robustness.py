@@ -44,6 +44,10 @@ fall, and the holes: levels that fell although a higher level of the same row wa
 which no footsteps save the walk (``push_bounds``, JSON ``push.bounds``: with the torso's moment
 at the feet or taken by the trunk; for legs that reach across, also with the feet kept apart),
 and per scale at how many starts it lies beyond: a fall there is physics, not a controller.
+The same four under the walker's swings (``swing_*``: the CoP only under the feet that stand,
+single supports of ``timing.MIN_SS_S`` at least and swings no faster than the robot's
+``max_swing_speed_m_s``; ``dcmviz.sweep.bounds.swing_bound_at``): beyond those, no walk of this
+walker's catches ξ.
 With MuJoCo it also walks the gait once unpushed and names the joints nearest their torque
 limits in single support (``torque_headroom``: a robot whose knees are at their limit walking
 has none left for a push).  After the pull table
@@ -518,6 +522,7 @@ BOUND_KINDS = (  # key, crossing, moment_at_feet: what each of push_bounds' numb
     ("uncrossed_torso", False, True),  # the feet kept the minimum step width apart
     ("uncrossed_com", False, False),
 )
+SWING = "swing_"  # the same four with the walker's swings (dcmviz.sweep.bounds.swing_bound_at)
 
 
 def push_bounds(config: Config, start: float) -> dict[str, Any]:
@@ -530,26 +535,30 @@ def push_bounds(config: Config, start: float) -> dict[str, Any]:
     and with the feet kept the minimum step width apart (``uncrossed_*``: every strategy but
     ``crossover``).  None where no bound applies (the pushed foot swings or may still lift).  ξ
     is read off the nominal plan: the second push's bound assumes the walk is back on it."""
-    from dcmviz.sweep.bounds import footstep_bound_at
+    from dcmviz.sweep.bounds import footstep_bound_at, swing_bound_at
 
     unit = PAPER_FORCE_N * load_robot(config.robot.model).spec.mass_kg / PAPER_MASS_KG * PUSH_S
     out: dict[str, Any] = {}
+    keys = [k for k, _, _ in BOUND_KINDS] + [SWING + k for k, _, _ in BOUND_KINDS]
     for name, t, angle in (("first", start, np.pi / 2), ("second", start + PUSH_GAP_S, -np.pi / 2)):
         out[name] = {}
-        for key, crossing, at_feet in BOUND_KINDS:
-            j = footstep_bound_at(config, t, PUSH_S, angle, backend="mujoco",
-                                  moment_at_feet=at_feet, crossing=crossing)  # fmt: skip
-            out[name][key] = None if j is None else j / unit
-    for key, _, _ in BOUND_KINDS:
+        for bound, prefix in ((footstep_bound_at, ""), (swing_bound_at, SWING)):
+            for key, crossing, at_feet in BOUND_KINDS:
+                j = bound(config, t, PUSH_S, angle, backend="mujoco", moment_at_feet=at_feet,
+                          crossing=crossing)  # fmt: skip
+                out[name][prefix + key] = None if j is None else j / unit
+    for key in keys:
         values = [out[n][key] for n in ("first", "second") if out[n][key] is not None]
         out[key] = min(values) if values else None
     return out
 
 
 def bound_lines(rows: list[str], bounds: list[dict[str, Any]], scales: list[float]) -> list[str]:
-    """The push table's bounds, one line per start (the crossed ones where the legs can cross),
-    then per scale the starts it lies beyond."""
+    """The push table's bounds, one line per start (the crossed ones where the legs can cross;
+    with the walker's swings after them where ``bounds`` has them, ``swing_*``), then per scale
+    the starts it lies beyond."""
     crossing = any(b["torso"] != b["uncrossed_torso"] for b in bounds)
+    swings = all(SWING + "torso" in b for b in bounds)
 
     def cell(x: float | None) -> str:
         return "-" if x is None else f"{x:.2f}x"
@@ -557,25 +566,33 @@ def bound_lines(rows: list[str], bounds: list[dict[str, Any]], scales: list[floa
     def beyond(key: str, sc: float) -> int:
         return sum(1 for b in bounds if b[key] is not None and b[key] < sc)
 
+    def pair(b: dict[str, Any], prefix: str) -> str:
+        text = f"{cell(b[prefix + 'torso'])} / {cell(b[prefix + 'com'])}"
+        if crossing:
+            text += (f"; uncrossed {cell(b[prefix + 'uncrossed_torso'])} / "
+                     f"{cell(b[prefix + 'uncrossed_com'])}")  # fmt: skip
+        return text
+
     lines = []
     for row, b in zip(rows, bounds, strict=True):
-        text = f"  {row}: {cell(b['torso'])} / {cell(b['com'])}"
-        if crossing:
-            text += f"; uncrossed {cell(b['uncrossed_torso'])} / {cell(b['uncrossed_com'])}"
+        text = f"  {row}: {pair(b, '')}"
+        if swings:
+            text += f"  | walker's swings {pair(b, SWING)}"
         lines.append(text)
+    what = (("", "every footstep"), (SWING, "every walk with the walker's swings"))
     for sc in scales:
-        keys = (
-            ("torso", "com", "uncrossed_torso", "uncrossed_com") if crossing else ("torso", "com")
-        )
-        n = {k: beyond(k, sc) for k in keys}
-        if not any(n.values()):
-            continue
-        text = (f"  {sc:g}x is beyond every footstep at {n['torso']} of {len(rows)} starts with "
-                f"the torso's moment at the feet, at {n['com']} even with it taken by the trunk")  # fmt: skip
-        if crossing:
-            text += (f"; without crossing the legs at {n['uncrossed_torso']} and "
-                     f"{n['uncrossed_com']}")  # fmt: skip
-        lines.append(text)
+        for prefix, name in what[: 2 if swings else 1]:
+            keys = ("torso", "com", "uncrossed_torso", "uncrossed_com")[: 4 if crossing else 2]
+            n = {k: beyond(prefix + k, sc) for k in keys}
+            if not any(n.values()):
+                continue
+            text = (f"  {sc:g}x is beyond {name} at {n['torso']} of {len(rows)} starts with "
+                    f"the torso's moment at the feet, at {n['com']} even with it taken by the "
+                    f"trunk")  # fmt: skip
+            if crossing:
+                text += (f"; without crossing the legs at {n['uncrossed_torso']} and "
+                         f"{n['uncrossed_com']}")  # fmt: skip
+            lines.append(text)
     return lines
 
 
@@ -732,7 +749,9 @@ def _run(args: argparse.Namespace, recovery: str | None, gains: tuple) -> dict[s
         out["push"]["bounds"] = [{"row": r, **b} for r, b in zip(rows, pbounds, strict=True)]
         print("  beyond every footstep, in the push's scale (torso's moment at the feet / taken by"
               " the trunk; the smaller of the two pushes; '-': the pushed foot can still step"
-              " out; dcmviz.sweep.bounds.footstep_bound_at):")  # fmt: skip
+              " out; dcmviz.sweep.bounds.footstep_bound_at), and beyond every walk whose CoP"
+              " stays under the feet that stand and whose feet swing as the walker's do"
+              " (swing_bound_at):")  # fmt: skip
         print("\n".join(bound_lines(rows, pbounds, args.scales)))
         late = late_falls(pr)
         out["push"]["late_falls"] = late

@@ -332,6 +332,29 @@ def test_the_bound_lines_count_the_starts_each_scale_lies_beyond() -> None:
     assert lines[0] == "  start 2.50s: 2.20x / 3.30x" and "without crossing" not in lines[2]
 
 
+def test_the_bound_lines_add_the_walkers_swings_where_the_bounds_have_them() -> None:
+    """With the swing bounds (``swing_*``, push_bounds') the line of a start gives them after the
+    footstep bounds, and each scale beyond them gets its own count."""
+    rb = robustness_bench()
+    keys = ("torso", "com", "uncrossed_torso", "uncrossed_com")
+
+    def row(loose, tight):
+        return {**dict(zip(keys, loose, strict=True)),
+                **{"swing_" + k: v for k, v in zip(keys, tight, strict=True)}}  # fmt: skip
+
+    rows = ["start 2.50s", "start 3.62s"]
+    bounds = [row((2.86, 4.06, 2.51, 3.57), (2.86, 4.06, 1.54, 2.18)),
+              row((2.33, 3.31, 2.10, 2.98), (2.33, 3.31, 1.43, 2.03))]  # fmt: skip
+    lines = rb.bound_lines(rows, bounds, [1.5, 2.0])
+    assert lines[1] == ("  start 3.62s: 2.33x / 3.31x; uncrossed 2.10x / 2.98x  | walker's swings "
+                        "2.33x / 3.31x; uncrossed 1.43x / 2.03x")  # fmt: skip
+    assert len(lines) == 4  # no footstep bound below 2x: the swings' lines only
+    assert "1.5x is beyond every walk with the walker's swings at 0 of 2" in lines[2]
+    assert "without crossing the legs at 1 and 0" in lines[2]
+    assert "2x is beyond every walk with the walker's swings" in lines[3]
+    assert "without crossing the legs at 2 and 0" in lines[3]
+
+
 def test_compare_strategies_counts_starts_and_first_falls_and_names_the_weaker() -> None:
     """compare_strategies on made-up runs: starts survived per scale counted from the rollouts,
     each pull side's first fall from the summary, and what falls earlier than next_step: fewer

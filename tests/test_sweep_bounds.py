@@ -18,6 +18,9 @@ from dcmviz.sweep.bounds import (
     footstep_bound_at,
     footstep_impulse,
     stance_edge_bound,
+    swing_bound_at,
+    swing_impulse,
+    swing_walk,
 )
 from dcmviz.sweep.search import push_window
 
@@ -205,3 +208,136 @@ def test_no_footsteps_save_the_g1s_point_mass_beyond_the_bound_of_the_papers_pus
 
     assert not fell(1.0)
     assert all(fell(k * bound) for k in (1.05, 1.2, 1.5))
+
+
+# the swing bound: d, reach, step out, landing, shortest swing, swing speed, T
+SWING_CASES = [
+    (0.045, -0.071, 0.40, 0.35, 0.35, 1.5, 1.0),  # the G1 at 3.625 s: the other foot kept apart
+    (0.05, 0.0, 0.40, 0.35, 0.35, 1.5, 1.0),  # ... landing in line with the pushed one
+    (0.1, 0.2, 0.5, 0.3, 0.35, 1.8, 1.0),  # across, far out (Talos)
+    (0.08, -0.14, 0.5, 0.12, 0.35, 1.0, 0.2),  # a short push; wide steps slower than 0.35 s
+]
+
+
+def stand_walk(case, impulse, lifts, n_lifts=3, shorten=None):
+    """min over t ≥ T of ξ − (the outer edge of the soles that stand), integrated with RK4 (the
+    LIP ẍ = (x − c)/b² + gain F/(m b²)) through a walk of swing_impulse's model: the pushed
+    side's foot lifting at ``lifts`` (s, each after the previous landing), landing a step out
+    from the other (``shorten`` m less per step), the other lifting then and stepping back;
+    > 0: ξ never caught."""
+    d, reach, out, landing, min_swing, speed, T = case
+    gain, F = B * B + LEVER / 9.81, impulse / T
+
+    def swing(dist):
+        return max(min_swing, abs(dist) / speed)
+
+    segments = [(0.0, landing, d)]  # (from, to, the CoP's edge)
+    outer, inner, t = d, d + reach, landing
+    for k in range(n_lifts):
+        lift = max(lifts[k], t)
+        segments.append((t, lift, max(outer, inner)))
+        new = inner + out - (0.0 if shorten is None else shorten[k])
+        t_out = lift + swing(new - outer)
+        segments.append((lift, t_out, inner))
+        back = new + reach
+        t_in = t_out + swing(back - inner)
+        segments.append((t_out, t_in, new))
+        outer, inner, t = new, back, t_in
+    segments.append((t, max(t, T) + 1.0, max(outer, inner)))
+    y, worst = np.array([0.0, 0.0]), math.inf
+    for a, z, cop in segments:
+        for lo, hi in ((a, min(z, max(a, T))), (max(a, T), z)):  # pushed, then not
+            if hi <= lo:
+                continue
+            push = gain * F / M if lo < T else 0.0
+            f = lambda yy, c=cop, p=push: np.array([yy[1], (yy[0] - c + p) / B**2])  # noqa: E731
+            steps = max(4, math.ceil((hi - lo) / 2e-3))
+            for _ in range(steps):
+                y = rk4(f, y, (hi - lo) / steps, 1)
+                if lo >= T - 1e-12:
+                    worst = min(worst, y[0] + B * y[1] - cop)
+    return worst
+
+
+@pytest.mark.parametrize("case", SWING_CASES)
+def test_the_swing_bounds_walk_catches_the_dcm_just_below_it(case) -> None:
+    """Integrated LIP: the lift-offs swing_walk finds at 1 % below swing_impulse's bound catch ξ
+    (ξ back inside the standing soles' edge after the push), and at 1 % above it finds none."""
+    d, reach, out, landing, min_swing, speed, T = case
+    J = swing_impulse(d, reach, out, landing, min_swing, speed, M, B, T, LEVER)
+    gain = B * B + LEVER / 9.81
+    walk = swing_walk(d, reach, out, landing, min_swing, speed, gain * 0.99 * J / T / M, B, T)
+    assert walk is not None
+    # the walk's lift-offs, then it stands (ξ inside the edge goes on inwards)
+    assert stand_walk(case, 0.99 * J, list(walk.lifts), n_lifts=len(walk.lifts)) <= 1e-6
+    assert swing_walk(d, reach, out, landing, min_swing, speed, gain * 1.01 * J / T / M, B,
+                      T) is None  # fmt: skip
+
+
+@pytest.mark.parametrize("case", SWING_CASES)
+def test_no_lift_offs_or_shorter_steps_catch_the_dcm_beyond_the_swing_bound(case) -> None:
+    """Monte Carlo over 60 walks lifting the pushed side's foot at random (up to 1.2 s after it
+    may) and stepping up to 5 cm shorter, integrated: at 1 % beyond the bound none catches ξ;
+    at 10 % below it some do (the search's walk is not the only one)."""
+    d, reach, out, landing, min_swing, speed, T = case
+    J = swing_impulse(d, reach, out, landing, min_swing, speed, M, B, T, LEVER)
+    rng = np.random.default_rng(11)
+    caught_below = 0
+    for _ in range(60):
+        waits = np.cumsum(rng.uniform(0.0, 1.2, 3) * rng.integers(0, 2, 3))
+        lifts = list(landing + waits)
+        shorter = rng.uniform(0.0, 0.05, 3) * rng.integers(0, 2, 3)
+        assert stand_walk(case, 1.01 * J, lifts, shorten=shorter) > 0.0
+        caught_below += stand_walk(case, 0.9 * J, lifts) <= 0.0
+    assert caught_below > 0
+
+
+@pytest.mark.parametrize("case", SWING_CASES)
+def test_the_swing_bound_lies_below_the_footstep_bound(case) -> None:
+    """The CoP under the standing feet only: never above footstep_impulse's model, which lets it
+    stay on a swinging foot's edge; equal where the other foot lands in line or across (lifting
+    the pushed foot then loses nothing) and its swings are the shortest."""
+    d, reach, out, landing, min_swing, speed, T = case
+    swing = swing_impulse(d, reach, out, landing, min_swing, speed, M, B, T, LEVER)
+    loose = footstep_impulse(d, reach, out, landing, min_swing, M, B, T, LEVER)
+    assert swing <= loose * (1.0 + 1e-9)
+    if reach < 0.0:
+        assert swing < 0.9 * loose
+
+
+def test_the_g1s_point_mass_falls_beyond_the_swing_bound_without_crossing() -> None:
+    """bench/robustness.py's push pair from 3.625 s on the point mass with the G1's numbers and
+    the torso's moment on its CoP (forces × the lever factor): the swing bound without crossing
+    the legs is below 1.5× of the paper's push (the footstep bound 2.10×), and every strategy
+    that keeps the feet apart falls at 1.05, 1.2 and 1.5 times it, while at 0.7 times it they
+    walk on."""
+    rb = robustness_bench()
+    config = rb.walking_config("g1", sim="lip")
+    bounds = rb.push_bounds(config, G1_START_S)
+    bound = bounds["first"]["swing_uncrossed_torso"]
+    assert bound < 1.5 < bounds["first"]["uncrossed_torso"]
+    for kind in ("torso", "com", "uncrossed_torso", "uncrossed_com"):
+        assert bounds["first"]["swing_" + kind] <= bounds["first"][kind] * (1.0 + 1e-9)
+    lever = rb.lever_factor("g1")
+    for recovery in ("next_step", "multi_step_timing"):
+        base = rb.walking_config("g1", sim="lip", overrides=[f'control.recovery="{recovery}"'])
+        mass = Session(base, backend="lip").mass
+
+        def fell(scale: float, base=base, mass=mass) -> bool:
+            pushed = rb.push_config(base, mass, scale, G1_START_S, lever)
+            return Session(pushed, backend="lip").run(G1_START_S + rb.PUSH_S + 2.0).fell
+
+        assert not fell(0.7 * bound), recovery
+        assert all(fell(k * bound) for k in (1.05, 1.2, 1.5)), recovery
+
+
+def test_the_g1s_swing_bound_is_the_bench_at_every_start() -> None:
+    """swing_bound_at agrees with the numbers push_bounds hands the bench, in the push's scale."""
+    rb = robustness_bench()
+    config = rb.walking_config("g1", sim="lip")
+    unit = rb.PAPER_FORCE_N * 33.341 / rb.PAPER_MASS_KG * rb.PUSH_S
+    j = swing_bound_at(config, G1_START_S, rb.PUSH_S, math.pi / 2, backend="mujoco",
+                       crossing=False)  # fmt: skip
+    assert rb.push_bounds(config, G1_START_S)["first"]["swing_uncrossed_torso"] == pytest.approx(
+        j / unit, rel=1e-3
+    )

@@ -50,6 +50,15 @@ stepping in turn as early and as far out as the robot reaches, the pushed foot l
 instant the other is down whatever ξ does); beyond it no walk catches ξ.  It lies above the
 stance-edge bound (tests/test_sweep_bounds.py checks it against an integrated LIP and against
 walks that step later or shorter).
+
+That model lets the CoP stay on the pushed sole's edge while that foot swings, which no walk
+can.  The swing bound (:func:`swing_bound_at`, :func:`swing_impulse`) keeps the CoP on the soles
+that stand: while the pushed foot swings out, the CoP is on the other sole's edge, so when to
+lift it matters (a lift too early loses ξ on the way, a lift too late lets ξ run first), and it
+swings as a walker's foot does, no faster than ``max_swing_speed_m_s`` on average and no shorter
+than ``timing.MIN_SS_S``.  It searches the lift-offs; beyond it no walk with such swings catches
+ξ (the G1 at 3.625 s, the paper's push pair with the torso's moment at the feet: 1.43× against
+the footstep bound's 2.33×; tests/test_sweep_bounds.py integrates its walks).
 """
 
 from __future__ import annotations
@@ -444,4 +453,158 @@ def footstep_bound_at(
     return footstep_impulse(
         distance, reach, spec.max_step_width_m, pushed.landing_s, timing.MIN_SS_S, spec.mass_kg,
         config.dcm.b, duration_s, lever,
+    ) / pushed.cos  # fmt: skip
+
+
+SWING_WAIT_STEP_S = 0.01  # the lift-offs searched: this far apart
+SWING_WAIT_MAX_S = 1.2  # ... up to this long after the foot may lift
+SWING_LIFTS = 3  # lift-offs of the pushed side's foot searched in turn (more change nothing)
+
+
+@dataclass(frozen=True)
+class SwingWalk:
+    """A walk of :func:`swing_impulse`'s model: the pushed side's lift-offs and every landing,
+    (time s, the landed sole's outer edge m, along the push's outward axis, from ξ_0)."""
+
+    lifts: tuple[float, ...]
+    landings: tuple[tuple[float, float], ...]
+
+
+def swing_walk(
+    edge_distance_m: float,
+    reach_m: float,
+    step_out_m: float,
+    landing_s: float,
+    min_swing_s: float,
+    swing_speed_m_s: float,
+    shift_m: float,
+    b: float,
+    duration_s: float,
+) -> SwingWalk | None:
+    """A walk that catches ξ in :func:`swing_impulse`'s model under a push that moves the CoP by
+    ``shift_m`` while it lasts (``duration_s``), or None if none of those searched does."""
+    if step_out_m + reach_m <= 0.0:
+        raise ValueError(f"step_out_m + reach_m = {step_out_m + reach_m}: must be > 0 (a step out)")
+
+    def advance(xi: float, t0: float, t1: float, cop: float) -> float:
+        for a, c in ((t0, min(max(duration_s, t0), t1)), (min(max(duration_s, t0), t1), t1)):
+            if c > a:
+                v = cop - (shift_m if a < duration_s else 0.0)
+                xi = v + math.exp((c - a) / b) * (xi - v)
+        return xi
+
+    def swing(distance: float) -> float:
+        return max(min_swing_s, abs(distance) / swing_speed_m_s)
+
+    # beyond this far past the soles' edge ξ is lost even to footstep_impulse's walk, whose CoP stays out and whose swings are the shortest:
+    # the fixed point of its chain of landings (each raising the edge by a₁, a₂ in turn)
+    grow = math.exp(min_swing_s / b)
+    a1, a2 = step_out_m + reach_m, max(reach_m, 0.0)
+    lost = (grow * a1 + a2) / (grow * grow - 1.0)
+
+    def walk(xi, t, outer, inner, lifts, landings, depth):
+        # both feet down, the pushed side's sole (edge ``outer``) and the other's (``inner``)
+        cop = max(outer, inner)
+        if t >= duration_s and xi <= cop:
+            return SwingWalk(tuple(lifts), tuple(landings))
+        if depth == 0:
+            return None
+        # waiting for a lift-off helps only while the push lasts (after it, a ξ outside the
+        # edge only runs further)
+        waits = min(int(round(SWING_WAIT_MAX_S / SWING_WAIT_STEP_S)),
+                    max(0, math.ceil((duration_s - t) / SWING_WAIT_STEP_S)))  # fmt: skip
+        for k in range(waits + 1):
+            lift = t + k * SWING_WAIT_STEP_S
+            x1 = advance(xi, t, lift, cop)
+            if lift >= duration_s and x1 <= cop:
+                return SwingWalk(tuple(lifts), tuple(landings))
+            if x1 - cop > lost:  # (a push still on only makes it run faster)
+                return None  # lost now, and later lift-offs find ξ further out
+            out = inner + step_out_m  # the pushed side's foot, as far out as it steps
+            t_out = lift + swing(out - outer)
+            x2 = advance(x1, lift, t_out, inner)  # on the other sole meanwhile
+            if t_out >= duration_s and x2 <= out:
+                return SwingWalk((*lifts, lift), (*landings, (t_out, out)))
+            back = out + reach_m  # the other foot lifts as this one lands, and steps in
+            t_in = t_out + swing(back - inner)
+            x3 = advance(x2, t_out, t_in, out)  # on the pushed side's sole meanwhile
+            found = walk(x3, t_in, out, back, (*lifts, lift), (*landings, (t_out, out),
+                         (t_in, back)), depth - 1)  # fmt: skip
+            if found is not None:
+                return found
+        return None
+
+    xi = advance(0.0, 0.0, landing_s, edge_distance_m)
+    other = edge_distance_m + reach_m  # the other foot down as early as it may, as near
+    return walk(xi, landing_s, edge_distance_m, other, [], [(landing_s, other)], SWING_LIFTS)
+
+
+def swing_impulse(
+    edge_distance_m: float,
+    reach_m: float,
+    step_out_m: float,
+    landing_s: float,
+    min_swing_s: float,
+    swing_speed_m_s: float,
+    mass_kg: float,
+    b: float,
+    duration_s: float,
+    lever_m: float = 0.0,
+) -> float:
+    """Largest impulse (N·s) of a constant push held ``duration_s`` that a walk with a walker's
+    swings may still save, on a lateral LIP with the CoP on the outermost edge of the soles that
+    stand: the pushed sole's ``edge_distance_m`` beyond ξ_0 at first, the other foot down
+    ``landing_s`` after the push's start with its edge ``reach_m`` past the pushed one's (< 0:
+    inside it); then the pushed side's foot lifts when the search says (every
+    ``SWING_WAIT_STEP_S`` up to ``SWING_WAIT_MAX_S`` after it may), the CoP on the other sole
+    while it swings, and lands ``step_out_m`` (the widest step) out from the other, which lifts
+    as it lands and comes back to ``reach_m`` past it; a swing lasts its distance over
+    ``swing_speed_m_s`` and at least ``min_swing_s``.  ξ is caught when, the push over, it is
+    inside the soles' outer edge.  Steps as wide and landings as early as they may be keep the
+    soles' edge the farthest out at every instant, and a foot whose edge is inside the other's
+    loses nothing by lifting at once, so only the pushed side's lift-offs are searched
+    (``SWING_LIFTS`` of them).  The push's lever counts as in :func:`edge_impulse`; bisection on
+    F (ξ grows with F)."""
+    gain = b * b + lever_m / GRAVITY
+
+    def holds(force: float) -> bool:
+        return swing_walk(
+            edge_distance_m, reach_m, step_out_m, landing_s, min_swing_s, swing_speed_m_s,
+            gain * force / mass_kg, b, duration_s,
+        ) is not None  # fmt: skip
+
+    lo, hi = 0.0, 1.0
+    while holds(hi) and hi < 1e7:
+        hi *= 2.0
+    for _ in range(40):  # to 1e-12 of the doubling's bracket: far below the search's grid
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if holds(mid) else (lo, mid)
+    return lo * duration_s
+
+
+def swing_bound_at(
+    config: Config,
+    start_s: float,
+    duration_s: float,
+    angle_rad: float,
+    *,
+    backend: str = "lip",
+    body: str = "torso",
+    moment_at_feet: bool = True,
+    crossing: bool = True,
+) -> float | None:
+    """The swing bound (N·s, module docstring) of a push at ``angle_rad`` held ``duration_s``
+    from ``start_s``: :func:`footstep_bound_at`'s walk with the CoP on the soles that stand and
+    the robot's swings (``max_swing_speed_m_s``, ``timing.MIN_SS_S``), the lift-offs searched
+    (:func:`swing_impulse`).  None where :func:`pushed_foot` says no bound applies."""
+    found = _pushed(config, start_s, angle_rad, backend, body, moment_at_feet)
+    if found is None:
+        return None
+    robot, _, pushed, lever = found
+    spec = robot.spec
+    distance = pushed.centre + 0.5 * spec.foot_width_m - pushed.xi0
+    reach = reach_across(robot) if crossing else -spec.min_step_width_m
+    return swing_impulse(
+        distance, reach, spec.max_step_width_m, pushed.landing_s, timing.MIN_SS_S,
+        spec.max_swing_speed_m_s, spec.mass_kg, config.dcm.b, duration_s, lever,
     ) / pushed.cos  # fmt: skip
