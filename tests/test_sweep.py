@@ -6,6 +6,7 @@ import csv
 import dataclasses
 import functools
 import json
+import math
 from pathlib import Path
 
 import pytest
@@ -20,7 +21,7 @@ from dcmviz.sweep import (
     table,
     write_envelope,
 )
-from dcmviz.sweep.bounds import stance_edge_bound
+from dcmviz.sweep.bounds import footstep_bound_at, stance_edge_bound
 from dcmviz.sweep.experiments import stance_edge_bounds
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -158,6 +159,14 @@ def test_strategies_side_by_side(tmp_path: Path) -> None:
     assert trunk["90.0"] > 1.3 * torso["90.0"]  # Talos: 41.8 against 29.3 N·s
     text = table({**result, "stance_edge_bound_ns": torso, "stance_edge_bound_trunk_ns": trunk})
     assert f"by the feet: 90° {trunk['90.0']:.1f} N·s" in text
+    # stepping the stance foot out once the other is down: above the stance-edge bound (the CoP
+    # on the other sole meanwhile), below the footstep bound (the CoP kept on the lifted sole)
+    swung = result["swing_bound_ns"]["90.0"]
+    start = push_window(config, settings.step, settings.phase)[0]
+    loose = footstep_bound_at(config, start, settings.push_duration_s, math.pi / 2,
+                              crossing=False)  # fmt: skip
+    assert result["stance_edge_bound_ns"]["90.0"] < swung < 0.8 * loose
+    assert f"swings as the walker's: swing_bound_at) at most: 90° {swung:.1f} N·s" in table(result)
     paths = write_envelope(result, tmp_path)
     assert paths[2].stat().st_size > 10_000
 

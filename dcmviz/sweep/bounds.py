@@ -608,3 +608,26 @@ def swing_bound_at(
         distance, reach, spec.max_step_width_m, pushed.landing_s, timing.MIN_SS_S,
         spec.max_swing_speed_m_s, spec.mass_kg, config.dcm.b, duration_s, lever,
     ) / pushed.cos  # fmt: skip
+
+
+def swing_bound(
+    config: Config,
+    step: int,
+    phase: float,
+    duration_s: float,
+    angle_rad: float,
+    *,
+    backend: str = "lip",
+    body: str = "torso",
+    moment_at_feet: bool = True,
+    crossing: bool = False,
+) -> float | None:
+    """:func:`swing_bound_at` for a push at ``phase`` of step ``step``'s single support, without
+    crossing steps unless ``crossing``: what a strategy that keeps the feet apart can reach at
+    most by stepping the stance foot out once the other is down (above the stance-edge bound,
+    which waits for ξ back over the stance sole first)."""
+    start, _, _ = push_window(config, step, phase)
+    return swing_bound_at(
+        config, start, duration_s, angle_rad, backend=backend, body=body,
+        moment_at_feet=moment_at_feet, crossing=crossing,
+    )  # fmt: skip

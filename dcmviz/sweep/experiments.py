@@ -19,7 +19,7 @@ from dcmviz import GRAVITY
 from dcmviz.config import Config, ControlSection
 from dcmviz.gait import plan_from_config
 from dcmviz.robots import load_robot
-from dcmviz.sweep.bounds import crossover_bound, stance_edge_bound
+from dcmviz.sweep.bounds import crossover_bound, stance_edge_bound, swing_bound
 from dcmviz.sweep.cells import Cell, CellOutcome, RolloutEvent, SweepRun
 from dcmviz.sweep.report import ratios
 from dcmviz.sweep.runner import Runner, make_runner
@@ -237,6 +237,8 @@ def envelope(
             else {}
         ),
         "crossover_bound_ns": stance_edge_bounds(config, settings, crossover_bound),
+        # without crossing, the stance foot stepping out once the other is down
+        "swing_bound_ns": stance_edge_bounds(config, settings, swing_bound),
     }
 
 

@@ -108,14 +108,21 @@ def table(result: dict[str, Any]) -> str:
     bound = _by_direction(result, "stance_edge_bound_ns")
     if bound:
         lines.append(
-            "towards the stance foot no strategy without crossing steps exceeds (CoP on the "
-            "stance sole's edge from the push's start, a humanoid's feet also taking the push's "
-            "moment about the CoM; dcmviz.sweep.bounds): " + _listed(bound)
+            "towards the stance foot no strategy without crossing steps that lifts the stance "
+            "foot only with ξ back over it exceeds (CoP on the stance sole's edge from the "
+            "push's start, a humanoid's feet also taking the push's moment about the CoM; "
+            "dcmviz.sweep.bounds): " + _listed(bound)
         )
         if trunk := _by_direction(result, "stance_edge_bound_trunk_ns"):
             lines.append(
                 "the same with the push's moment taken by the trunk as angular momentum (given "
                 "back once ξ is caught) instead of by the feet: " + _listed(trunk)
+            )
+        if swung := _by_direction(result, "swing_bound_ns"):
+            lines.append(
+                "stepping the stance foot out once the other foot is down (the CoP on that sole "
+                "while it swings, swings as the walker's: swing_bound_at) at most: "
+                + _listed(swung)
             )
         if crossed := _by_direction(result, "crossover_bound_ns"):
             lines.append(
