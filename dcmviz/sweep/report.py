@@ -166,7 +166,8 @@ def write_envelope(result: dict[str, Any], out: Path) -> list[Path]:
 def plot_polar(result: dict[str, Any], path: Path, *, compact: bool = False) -> None:
     """One closed curve per controller: max impulse (N·s) against push direction, and the
     stance-edge bound the report's table prints (black diamonds, where the result has it; grey
-    ones: the same bound with the push's moment taken by the trunk).
+    ones: the same bound with the push's moment taken by the trunk; black crosses: the swing
+    bound, the stance foot stepping out once the other is down).
 
     ``compact``: a short title in a larger font, for a plot shown a few hundred pixels wide
     (the dashboard's Sweep tab); the long one's details are in the table and the JSON."""
@@ -193,6 +194,7 @@ def plot_polar(result: dict[str, Any], path: Path, *, compact: bool = False) -> 
     for key, style, color, label in (
         ("stance_edge_bound_ns", "D", "k", "stance-edge bound"),
         ("stance_edge_bound_trunk_ns", "D", "0.55", "the same, moment taken by the trunk"),
+        ("swing_bound_ns", "X", "k", "stance foot stepping out, walker's swings"),
     ):
         if points := _by_direction(result, key):
             ax.plot(
