@@ -216,7 +216,26 @@ SWING_CASES = [
     (0.05, 0.0, 0.40, 0.35, 0.35, 1.5, 1.0),  # ... landing in line with the pushed one
     (0.1, 0.2, 0.5, 0.3, 0.35, 1.8, 1.0),  # across, far out (Talos)
     (0.08, -0.14, 0.5, 0.12, 0.35, 1.0, 0.2),  # a short push; wide steps slower than 0.35 s
+    (0.06, -0.13, 0.42, 0.35, 0.35, 0.72, 1.0),  # Romeo: its widest steps take 0.40 s
 ]
+
+
+def integrate_walk(case, impulse, walk) -> float:
+    """stand_walk's integration through the lift-offs and landings of a SwingWalk."""
+    d, reach, out, landing, min_swing, speed, T = case
+    (t, inner), *rest = walk.landings
+    outer, segments = d, [(0.0, t, d)]
+    for k, lift in enumerate(walk.lifts):
+        segments.append((t, lift, max(outer, inner)))
+        t_out, new = rest[2 * k]
+        segments.append((lift, t_out, inner))
+        t, outer = t_out, new
+        if 2 * k + 1 < len(rest):
+            t_in, back = rest[2 * k + 1]
+            segments.append((t_out, t_in, new))
+            t, inner = t_in, back
+    segments.append((t, max(t, T) + 1.0, max(outer, inner)))
+    return lowest_gap(segments, impulse, T)
 
 
 def stand_walk(case, impulse, lifts, n_lifts=3, shorten=None):
@@ -226,7 +245,6 @@ def stand_walk(case, impulse, lifts, n_lifts=3, shorten=None):
     from the other (``shorten`` m less per step), the other lifting then and stepping back;
     > 0: ξ never caught."""
     d, reach, out, landing, min_swing, speed, T = case
-    gain, F = B * B + LEVER / 9.81, impulse / T
 
     def swing(dist):
         return max(min_swing, abs(dist) / speed)
@@ -244,6 +262,12 @@ def stand_walk(case, impulse, lifts, n_lifts=3, shorten=None):
         segments.append((t_out, t_in, new))
         outer, inner, t = new, back, t_in
     segments.append((t, max(t, T) + 1.0, max(outer, inner)))
+    return lowest_gap(segments, impulse, T)
+
+
+def lowest_gap(segments, impulse, T) -> float:
+    """min over t ≥ T of ξ − the CoP's edge, RK4 through ``segments`` (from, to, edge)."""
+    gain, F = B * B + LEVER / 9.81, impulse / T
     y, worst = np.array([0.0, 0.0]), math.inf
     for a, z, cop in segments:
         for lo, hi in ((a, min(z, max(a, T))), (max(a, T), z)):  # pushed, then not
@@ -268,8 +292,8 @@ def test_the_swing_bounds_walk_catches_the_dcm_just_below_it(case) -> None:
     gain = B * B + LEVER / 9.81
     walk = swing_walk(d, reach, out, landing, min_swing, speed, gain * 0.99 * J / T / M, B, T)
     assert walk is not None
-    # the walk's lift-offs, then it stands (ξ inside the edge goes on inwards)
-    assert stand_walk(case, 0.99 * J, list(walk.lifts), n_lifts=len(walk.lifts)) <= 1e-6
+    # the walk's lift-offs and landings, then it stands (ξ inside the edge goes on inwards)
+    assert integrate_walk(case, 0.99 * J, walk) <= 1e-6
     assert swing_walk(d, reach, out, landing, min_swing, speed, gain * 1.01 * J / T / M, B,
                       T) is None  # fmt: skip
 

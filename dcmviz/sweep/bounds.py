@@ -459,6 +459,7 @@ def footstep_bound_at(
 SWING_WAIT_STEP_S = 0.01  # the lift-offs searched: this far apart
 SWING_WAIT_MAX_S = 1.2  # ... up to this long after the foot may lift
 SWING_LIFTS = 3  # lift-offs of the pushed side's foot searched in turn (more change nothing)
+SWING_WIDTHS = 4  # steps searched between the widest and the widest a shortest swing reaches
 
 
 @dataclass(frozen=True)
@@ -496,11 +497,30 @@ def swing_walk(
     def swing(distance: float) -> float:
         return max(min_swing_s, abs(distance) / swing_speed_m_s)
 
-    # beyond this far past the soles' edge ξ is lost even to footstep_impulse's walk, whose CoP stays out and whose swings are the shortest:
-    # the fixed point of its chain of landings (each raising the edge by a₁, a₂ in turn)
+    # beyond this far past the soles' edge ξ is lost even to footstep_impulse's walk, whose
+    # CoP stays out and whose swings are the shortest: the fixed point of its chain of landings
+    # (each raising the edge by a₁, a₂ in turn)
     grow = math.exp(min_swing_s / b)
     a1, a2 = step_out_m + reach_m, max(reach_m, 0.0)
     lost = (grow * a1 + a2) / (grow * grow - 1.0)
+
+    fast = swing_speed_m_s * min_swing_s  # the farthest a swing of min_swing_s goes
+
+    def outs(outer: float, inner: float) -> list[float]:
+        # as far out as it steps (its edge step_out_m past the other's); where that swing is
+        # slower than min_swing_s, nearer ones too: they land sooner
+        far = inner + step_out_m
+        near = max(outer + fast, inner + 1e-3)
+        if near >= far:
+            return [far]
+        return [far - (far - near) * i / (SWING_WIDTHS - 1) for i in range(SWING_WIDTHS)]
+
+    def backs(out: float, inner: float) -> list[float]:
+        # as near the pushed side's sole as it may (``reach_m`` past it), or sooner where that
+        # swing is slower than min_swing_s
+        near = out + reach_m
+        soon = inner + fast
+        return [near] if soon >= near else [near, soon]
 
     def walk(xi, t, outer, inner, lifts, landings, depth):
         # both feet down, the pushed side's sole (edge ``outer``) and the other's (``inner``)
@@ -520,18 +540,18 @@ def swing_walk(
                 return SwingWalk(tuple(lifts), tuple(landings))
             if x1 - cop > lost:  # (a push still on only makes it run faster)
                 return None  # lost now, and later lift-offs find ξ further out
-            out = inner + step_out_m  # the pushed side's foot, as far out as it steps
-            t_out = lift + swing(out - outer)
-            x2 = advance(x1, lift, t_out, inner)  # on the other sole meanwhile
-            if t_out >= duration_s and x2 <= out:
-                return SwingWalk((*lifts, lift), (*landings, (t_out, out)))
-            back = out + reach_m  # the other foot lifts as this one lands, and steps in
-            t_in = t_out + swing(back - inner)
-            x3 = advance(x2, t_out, t_in, out)  # on the pushed side's sole meanwhile
-            found = walk(x3, t_in, out, back, (*lifts, lift), (*landings, (t_out, out),
-                         (t_in, back)), depth - 1)  # fmt: skip
-            if found is not None:
-                return found
+            for out in outs(outer, inner):  # the pushed side's foot steps out
+                t_out = lift + swing(out - outer)
+                x2 = advance(x1, lift, t_out, inner)  # on the other sole meanwhile
+                if t_out >= duration_s and x2 <= out:
+                    return SwingWalk((*lifts, lift), (*landings, (t_out, out)))
+                for back in backs(out, inner):  # the other lifts as this one lands, steps in
+                    t_in = t_out + swing(back - inner)
+                    x3 = advance(x2, t_out, t_in, out)  # on the pushed side's sole meanwhile
+                    found = walk(x3, t_in, out, back, (*lifts, lift), (*landings, (t_out, out),
+                                 (t_in, back)), depth - 1)  # fmt: skip
+                    if found is not None:
+                        return found
         return None
 
     xi = advance(0.0, 0.0, landing_s, edge_distance_m)
@@ -560,8 +580,10 @@ def swing_impulse(
     while it swings, and lands ``step_out_m`` (the widest step) out from the other, which lifts
     as it lands and comes back to ``reach_m`` past it; a swing lasts its distance over
     ``swing_speed_m_s`` and at least ``min_swing_s``.  ξ is caught when, the push over, it is
-    inside the soles' outer edge.  Steps as wide and landings as early as they may be keep the
-    soles' edge the farthest out at every instant, and a foot whose edge is inside the other's
+    inside the soles' outer edge.  With swings of ``min_swing_s``, steps as wide and landings as
+    early as they may be keep the soles' edge the farthest out at every instant; where the
+    widest step swings longer, ``SWING_WIDTHS`` nearer ones (down to the widest a shortest swing
+    reaches) and a sooner step back are searched too.  A foot whose edge is inside the other's
     loses nothing by lifting at once, so only the pushed side's lift-offs are searched
     (``SWING_LIFTS`` of them).  The push's lever counts as in :func:`edge_impulse`; bisection on
     F (ξ grows with F)."""
