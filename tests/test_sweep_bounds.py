@@ -291,7 +291,7 @@ def test_the_swing_bounds_walk_catches_the_dcm_just_below_it(case) -> None:
     J = swing_impulse(d, reach, out, landing, min_swing, speed, M, B, T, LEVER)
     gain = B * B + LEVER / 9.81
     walk = swing_walk(d, reach, out, landing, min_swing, speed, gain * 0.99 * J / T / M, B, T)
-    assert walk is not None
+    assert walk is not None and not walk.cut  # a whole walk, not one the search's depth ended
     # the walk's lift-offs and landings, then it stands (ξ inside the edge goes on inwards)
     assert integrate_walk(case, 0.99 * J, walk) <= 1e-6
     assert swing_walk(d, reach, out, landing, min_swing, speed, gain * 1.01 * J / T / M, B,

@@ -469,6 +469,9 @@ class SwingWalk:
 
     lifts: tuple[float, ...]
     landings: tuple[tuple[float, float], ...]
+    # the search ended (SWING_LIFTS lift-offs) with ξ not yet lost to footstep_impulse's walk:
+    # counted as caught, so that the bound stays one (no walk beyond it) where the search is cut
+    cut: bool = False
 
 
 def swing_walk(
@@ -528,7 +531,7 @@ def swing_walk(
         if t >= duration_s and xi <= cop:
             return SwingWalk(tuple(lifts), tuple(landings))
         if depth == 0:
-            return None
+            return SwingWalk(tuple(lifts), tuple(landings), cut=True) if xi - cop <= lost else None
         # waiting for a lift-off helps only while the push lasts (after it, a ξ outside the
         # edge only runs further)
         waits = min(int(round(SWING_WAIT_MAX_S / SWING_WAIT_STEP_S)),
@@ -585,7 +588,9 @@ def swing_impulse(
     widest step swings longer, ``SWING_WIDTHS`` nearer ones (down to the widest a shortest swing
     reaches) and a sooner step back are searched too.  A foot whose edge is inside the other's
     loses nothing by lifting at once, so only the pushed side's lift-offs are searched
-    (``SWING_LIFTS`` of them).  The push's lever counts as in :func:`edge_impulse`; bisection on
+    (``SWING_LIFTS`` of them; where the search ends with ξ still within what
+    :func:`footstep_impulse`'s walk catches, it counts as caught, so the number stays a bound:
+    3 lift-offs against 5 raise it by at most 0.05 %).  The push's lever counts as in :func:`edge_impulse`; bisection on
     F (ξ grows with F)."""
     gain = b * b + lever_m / GRAVITY
 
