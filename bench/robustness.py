@@ -47,7 +47,8 @@ and per scale at how many starts it lies beyond: a fall there is physics, not a 
 The same four under the walker's swings (``swing_*``: the CoP only under the feet that stand,
 single supports of ``timing.MIN_SS_S`` at least and swings no faster than the robot's
 ``max_swing_speed_m_s``; ``dcmviz.sweep.bounds.swing_bound_at``): beyond those, no walk of this
-walker's catches ξ.
+walker's catches ξ; per scale, how many of the starts that fell lie beyond them for the
+strategy's legs (JSON ``push.falls_beyond_swing_bound``).
 With MuJoCo it also walks the gait once unpushed and names the joints nearest their torque
 limits in single support (``torque_headroom``: a robot whose knees are at their limit walking
 has none left for a push).  After the pull table
@@ -596,6 +597,44 @@ def bound_lines(rows: list[str], bounds: list[dict[str, Any]], scales: list[floa
     return lines
 
 
+def falls_beyond(
+    summary: dict[str, Any],
+    rows: list[str],
+    bounds: list[dict[str, Any]],
+    scales: list[float],
+    crossing: bool,
+) -> dict[str, dict[str, int]]:
+    """Per scale: at how many starts the walk fell, and at how many of those the scale lies
+    beyond every walk with the walker's swings for this strategy's legs (``crossing``: its
+    footsteps may cross; else the feet kept apart), with the torso's moment at the feet
+    (``beyond_torso``) and even with it taken by the trunk (``beyond_com``): those falls are
+    the walker's swings' and the robot's numbers, the rest the controller's."""
+    prefix = SWING if crossing else SWING + "uncrossed_"
+    out = {}
+    for sc in scales:
+        fell = [r for r in rows if summary.get(r, {}).get("fell", {}).get(str(sc))]
+        beyond = {k: sum(1 for r, b in zip(rows, bounds, strict=True)
+                         if r in fell and b.get(prefix + k) is not None and b[prefix + k] < sc)
+                  for k in ("torso", "com")}  # fmt: skip
+        out[str(sc)] = {"fell": len(fell), "beyond_torso": beyond["torso"],
+                        "beyond_com": beyond["com"]}  # fmt: skip
+    return out
+
+
+def falls_beyond_lines(counts: dict[str, dict[str, int]], starts: int, crossing: bool) -> list[str]:
+    """:func:`falls_beyond` as text, one line per scale with a fall."""
+    legs = "its footsteps may cross" if crossing else "the feet kept apart"
+    lines = []
+    for sc, c in counts.items():
+        if not c["fell"]:
+            continue
+        lines.append(f"  {float(sc):g}x: fell at {c['fell']} of {starts} starts, beyond every walk "
+                     f"with the walker's swings ({legs}) at {c['beyond_torso']} of them with the "
+                     f"torso's moment at the feet, at {c['beyond_com']} even with it taken by the "
+                     f"trunk")  # fmt: skip
+    return lines
+
+
 def floats(text: str) -> list[float]:
     return [float(x) for x in text.split(",") if x.strip()]
 
@@ -753,6 +792,10 @@ def _run(args: argparse.Namespace, recovery: str | None, gains: tuple) -> dict[s
               " stays under the feet that stand and whose feet swing as the walker's do"
               " (swing_bound_at):")  # fmt: skip
         print("\n".join(bound_lines(rows, pbounds, args.scales)))
+        crossing = STRATEGIES[base.control.recovery].crosses_legs
+        beyond = falls_beyond(s, rows, pbounds, args.scales, crossing)
+        out["push"]["falls_beyond_swing_bound"] = beyond
+        print("\n".join(falls_beyond_lines(beyond, len(rows), crossing)))
         late = late_falls(pr)
         out["push"]["late_falls"] = late
         for x in late:

@@ -355,6 +355,35 @@ def test_the_bound_lines_add_the_walkers_swings_where_the_bounds_have_them() -> 
     assert "without crossing the legs at 2 and 0" in lines[3]
 
 
+def test_falls_beyond_count_the_falls_past_the_swing_bound_of_the_strategys_legs() -> None:
+    """Per scale, of the starts that fell, those beyond the swing bound with the strategy's legs:
+    the crossed bound for a strategy that crosses, the uncrossed one otherwise; '-' (None) never
+    counts; a scale with no fall prints no line."""
+    rb = robustness_bench()
+    rows = ["start 2.50s", "start 3.62s", "start 3.40s"]
+
+    def bound(crossed, uncrossed):
+        return {"swing_torso": crossed[0], "swing_com": crossed[1],
+                "swing_uncrossed_torso": uncrossed[0], "swing_uncrossed_com": uncrossed[1]}  # fmt: skip
+
+    bounds = [bound((2.86, 4.06), (1.54, 2.18)), bound((2.33, 3.31), (1.43, 2.03)),
+              bound((None, None), (None, None))]  # fmt: skip
+    summary = {
+        "start 2.50s": {"fell": {"1.0": False, "1.5": False, "2.0": True}},
+        "start 3.62s": {"fell": {"1.0": False, "1.5": True, "2.0": True}},
+        "start 3.40s": {"fell": {"1.0": False, "1.5": True, "2.0": True}},
+    }
+    apart = rb.falls_beyond(summary, rows, bounds, [1.0, 1.5, 2.0], crossing=False)
+    assert apart["1.0"] == {"fell": 0, "beyond_torso": 0, "beyond_com": 0}
+    assert apart["1.5"] == {"fell": 2, "beyond_torso": 1, "beyond_com": 0}
+    assert apart["2.0"] == {"fell": 3, "beyond_torso": 2, "beyond_com": 0}
+    crossed = rb.falls_beyond(summary, rows, bounds, [2.0, 2.5], crossing=True)
+    assert crossed["2.0"] == {"fell": 3, "beyond_torso": 0, "beyond_com": 0}
+    lines = rb.falls_beyond_lines(apart, 3, crossing=False)
+    assert len(lines) == 2 and lines[1].startswith("  2x: fell at 3 of 3 starts")
+    assert "(the feet kept apart) at 2 of them with the torso's moment" in lines[1]
+
+
 def test_compare_strategies_counts_starts_and_first_falls_and_names_the_weaker() -> None:
     """compare_strategies on made-up runs: starts survived per scale counted from the rollouts,
     each pull side's first fall from the summary, and what falls earlier than next_step: fewer
