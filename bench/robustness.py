@@ -538,15 +538,21 @@ def push_bounds(config: Config, start: float) -> dict[str, Any]:
     is read off the nominal plan: the second push's bound assumes the walk is back on it."""
     from dcmviz.sweep.bounds import footstep_bound_at, swing_bound_at
 
-    unit = PAPER_FORCE_N * load_robot(config.robot.model).spec.mass_kg / PAPER_MASS_KG * PUSH_S
+    robot = load_robot(config.robot.model)
+    unit = PAPER_FORCE_N * robot.spec.mass_kg / PAPER_MASS_KG * PUSH_S
+    legs_cross = bool(robot.crossover.polygons)  # without a region: crossed = uncrossed
     out: dict[str, Any] = {}
     keys = [k for k, _, _ in BOUND_KINDS] + [SWING + k for k, _, _ in BOUND_KINDS]
     for name, t, angle in (("first", start, np.pi / 2), ("second", start + PUSH_GAP_S, -np.pi / 2)):
         out[name] = {}
+        found: dict[tuple, float | None] = {}  # each bound computed once
         for bound, prefix in ((footstep_bound_at, ""), (swing_bound_at, SWING)):
             for key, crossing, at_feet in BOUND_KINDS:
-                j = bound(config, t, PUSH_S, angle, backend="mujoco", moment_at_feet=at_feet,
-                          crossing=crossing)  # fmt: skip
+                asked = (bound, at_feet, crossing and legs_cross)
+                if asked not in found:
+                    found[asked] = bound(config, t, PUSH_S, angle, backend="mujoco",
+                                         moment_at_feet=at_feet, crossing=asked[2])  # fmt: skip
+                j = found[asked]
                 out[name][prefix + key] = None if j is None else j / unit
     for key in keys:
         values = [out[n][key] for n in ("first", "second") if out[n][key] is not None]
@@ -581,9 +587,9 @@ def bound_lines(rows: list[str], bounds: list[dict[str, Any]], scales: list[floa
             text += f"  | walker's swings {pair(b, SWING)}"
         lines.append(text)
     what = (("", "every footstep"), (SWING, "every walk with the walker's swings"))
+    keys = ("torso", "com", "uncrossed_torso", "uncrossed_com")[: 4 if crossing else 2]
     for sc in scales:
         for prefix, name in what[: 2 if swings else 1]:
-            keys = ("torso", "com", "uncrossed_torso", "uncrossed_com")[: 4 if crossing else 2]
             n = {k: beyond(prefix + k, sc) for k in keys}
             if not any(n.values()):
                 continue

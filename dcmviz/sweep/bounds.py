@@ -107,13 +107,13 @@ def crossed_edge_impulse(
     )
 
 
-def _largest_force(holds) -> float:
+def _largest_force(holds, bisections: int = 80) -> float:
     """The largest F ≥ 0 (N) with ``holds(F)``, for a ``holds`` true up to some force and false
-    beyond it: doubled from 1 N until it fails (or 10⁷ N), then 80 bisections."""
+    beyond it: doubled from 1 N until it fails (or 10⁷ N), then ``bisections`` bisections."""
     lo, hi = 0.0, 1.0
     while holds(hi) and hi < 1e7:
         hi *= 2.0
-    for _ in range(80):
+    for _ in range(bisections):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if holds(mid) else (lo, mid)
     return lo
@@ -600,13 +600,9 @@ def swing_impulse(
             gain * force / mass_kg, b, duration_s,
         ) is not None  # fmt: skip
 
-    lo, hi = 0.0, 1.0
-    while holds(hi) and hi < 1e7:
-        hi *= 2.0
-    for _ in range(40):  # to 1e-12 of the doubling's bracket: far below the search's grid
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if holds(mid) else (lo, mid)
-    return lo * duration_s
+    # 40 bisections: to 1e-12 of the doubling's bracket, far below the search's grid (each one
+    # is a whole search)
+    return _largest_force(holds, bisections=40) * duration_s
 
 
 def swing_bound_at(
