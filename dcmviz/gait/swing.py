@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -11,32 +12,39 @@ import numpy as np
 from dcmviz.gait.terrain import Terrain
 from dcmviz.robots.feet import Footstep
 
+_REST = (0.0, 0.0, 0.0)  # zero rate and acceleration of x, y, yaw (lift-off, touchdown)
+
 SWING_HEIGHT_M = 0.06  # apex of the swing above the higher of lift-off and touchdown
 RETARGET_FREEZE = 0.8  # the swing target is frozen for the last 20 % of single support
 PATH_SAMPLES = 24  # points of SwingTrajectory.path (the drawn path)
 
 
-def _quintic_coefficients(
-    p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, p1: np.ndarray, T: float
-) -> np.ndarray:
-    """Coefficients c (6, d) of p(τ) = Σ c_i τ^i with p, ṗ, p̈ given at 0 and p(T) = p1, ṗ = p̈ = 0.
+Columns = tuple[tuple[float, ...], ...]  # per component: the 6 coefficients of a quintic
 
-    Per component in Python floats (the rows are 3 long: numpy's per-call overhead would be most
-    of the cost), the same operations in the same order as the vector form."""
+
+def _quintic_coefficients(
+    p0: Sequence[float], v0: Sequence[float], a0: Sequence[float], p1: Sequence[float], T: float
+) -> Columns:
+    """Coefficients of p(τ) = Σ c_i τ^i with p, ṗ, p̈ given at 0 and p(T) = p1, ṗ = p̈ = 0, per
+    component (c_0 … c_5 of x, of y, of yaw).
+
+    In Python floats (the components are 3: numpy's per-call overhead would be most of the cost,
+    and a re-targeted swing solves this every tick), the same operations in the same order as
+    the vector form."""
     T2, T3, T4, T5 = T * T, T**3, T**4, T**5
-    rows = []
-    for q0, q1, qa, qe in zip(p0.tolist(), v0.tolist(), a0.tolist(), p1.tolist(), strict=True):
+    columns = []
+    for q0, q1, qa, qe in zip(p0, v0, a0, p1, strict=True):
         c2 = 0.5 * qa
         d = qe - (q0 + q1 * T + c2 * T2)
         e = -(q1 + 2 * c2 * T)
         f = -(2 * c2)
-        rows.append((
+        columns.append((
             q0, q1, c2,
             (10 * d - 4 * e * T + 0.5 * f * T2) / T3,
             (-15 * d + 7 * e * T - f * T2) / T4,
             (6 * d - 3 * e * T + 0.5 * f * T2) / T5,
         ))  # fmt: skip
-    return np.array(rows).T
+    return tuple(columns)
 
 
 EDGE_CLEARANCE_M = 0.03  # over terrain, the sole passes every edge at least this high
@@ -139,28 +147,31 @@ def _gap_to_sole(points: np.ndarray, stance: Footstep, sole: tuple[float, float]
 
 
 def detour(
-    coeffs: np.ndarray, T: float, stance: Footstep, sole: tuple[float, float]
+    columns: Columns, T: float, stance: Footstep, sole: tuple[float, float]
 ) -> tuple[float, float]:
-    """The horizontal detour d n (m) that keeps a swing sole on the quintic ``coeffs`` (over
-    [0, T]) SOLE_CLEARANCE_M clear of the ``stance`` sole: none if the quintic does; else round
-    its toe or heel or out to one side (n = ± its x or y axis), the smallest d (1 cm steps, at
-    most MAX_DETOUR_M) that clears it, or no closer than the path's ends are (a target still
-    moving across)."""
+    """The horizontal detour d n (m) that keeps a swing sole on the quintic ``columns`` (x, y
+    and yaw's coefficients, :func:`_quintic_coefficients`, over [0, T]) SOLE_CLEARANCE_M clear
+    of the ``stance`` sole: none if the quintic does; else round its toe or heel or out to one
+    side (n = ± its x or y axis), the smallest d (1 cm steps, at most MAX_DETOUR_M) that clears
+    it, or no closer than the path's ends are (a target still moving across)."""
     if sole[0] <= 0.0:
         return 0.0, 0.0
-    # both ends well to one side of the stance sole (every ordinary step): nothing to go around
+    # both ends well to one side of the stance sole (every ordinary step): nothing to go around;
+    # in floats (a re-targeted swing asks every tick)
     c, sn = math.cos(stance.yaw), math.sin(stance.yaw)
-    x0, y0 = float(coeffs[0, 0]), float(coeffs[0, 1])
-    x1 = float(sum(coeffs[i, 0] * T**i for i in range(6)))
-    y1 = float(sum(coeffs[i, 1] * T**i for i in range(6)))
-    lat0 = -(x0 - stance.position[0]) * sn + (y0 - stance.position[1]) * c
-    lat1 = -(x1 - stance.position[0]) * sn + (y1 - stance.position[1]) * c
+    cx, cy = columns[0], columns[1]
+    x0, y0 = cx[0], cy[0]
+    x1 = sum(cx[i] * T**i for i in range(6))
+    y1 = sum(cy[i] * T**i for i in range(6))
+    sx, sy = stance.position[:2].tolist()
+    lat0 = -(x0 - sx) * sn + (y0 - sy) * c
+    lat1 = -(x1 - sx) * sn + (y1 - sy) * c
     if lat0 * lat1 > 0.0 and min(abs(lat0), abs(lat1)) >= sole[1] + SOLE_CLEARANCE_M:
         return 0.0, 0.0
     s = np.linspace(0.0, 1.0, DETOUR_SAMPLES + 1)[1:-1]
     tau = s * T
     powers = np.stack([tau**i for i in range(6)], axis=1)
-    path = powers @ coeffs[:, :2]
+    path = powers @ np.array(columns).T[:, :2]
     gap = _gap_to_sole(path, stance, sole)
     # no closer than the ends themselves are (a target being moved across may still be near it)
     ends = _gap_to_sole(np.array([[x0, y0], [x1, y1]]), stance, sole)
@@ -205,7 +216,8 @@ class SwingTrajectory:
     yaw_target: float
     height: float
     t_seg: float = 0.0  # start time of the current horizontal segment
-    coeffs: np.ndarray | None = None  # (6, 3): x, y, yaw quintic from t_seg to t_touch
+    # x, y, yaw quintic from t_seg to t_touch: each one's coefficients c_0 … c_5 (floats)
+    columns: Columns = ()
     top: float | None = None  # m, plateau height over terrain (None: the bump of flat ground)
     # around the stance foot (a crossing step): the sole and the leg to keep clear of, and the
     # horizontal detour d · 64 s³(1 − s)³ n added to the quintic over its segment
@@ -235,9 +247,9 @@ class SwingTrajectory:
             top = _top_over(terrain, lift, touch, sole, z0, z1)
             height = top - 0.5 * (z0 + z1)
         yaw1 = lift.yaw + math.remainder(touch.yaw - lift.yaw, 2 * math.pi)
-        p0 = np.array([lift.position[0], lift.position[1], lift.yaw])
-        p1 = np.array([touch.position[0], touch.position[1], yaw1])
-        c = _quintic_coefficients(p0, np.zeros(3), np.zeros(3), p1, t_touch - t_lift)
+        p0 = (*lift.position[:2].tolist(), lift.yaw)
+        p1 = (*touch.position[:2].tolist(), yaw1)
+        c = _quintic_coefficients(p0, _REST, _REST, p1, t_touch - t_lift)
         way = detour(c, t_touch - t_lift, stance, sole) if stance is not None else (0.0, 0.0)
         return SwingTrajectory(
             t_lift,
@@ -271,7 +283,7 @@ class SwingTrajectory:
             return self
         t = max(t, self.t_seg)
         p, v, a = self._horizontal(t)
-        p1 = np.array([target[0], target[1], self.yaw_target])
+        p1 = (float(target[0]), float(target[1]), self.yaw_target)
         c = _quintic_coefficients(p, v, a, p1, self.t_touch - t)
         new_target = np.array([target[0], target[1], self.target[2]])
         way = detour(c, self.t_touch - t, self.stance, self.sole) if self.stance else (0.0, 0.0)
@@ -307,7 +319,7 @@ class SwingTrajectory:
         t_lift = (t - s * t_touch) / (1.0 - s)
         t = max(t, self.t_seg)
         p, v, a = self._horizontal(t)
-        p1 = np.array([self.target[0], self.target[1], self.yaw_target])
+        p1 = (float(self.target[0]), float(self.target[1]), self.yaw_target)
         c = _quintic_coefficients(p, v, a, p1, t_touch - t)
         way = detour(c, t_touch - t, self.stance, self.sole) if self.stance else (0.0, 0.0)
         return SwingTrajectory(
@@ -315,10 +327,11 @@ class SwingTrajectory:
             self.height, t, c, self.top, self.stance, self.sole, way,
         )  # fmt: skip
 
-    def _horizontal(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _horizontal(self, t: float) -> tuple[list[float], list[float], list[float]]:
+        """x, y, yaw and their rates and accelerations at global time t (floats)."""
         tau = min(max(t, self.t_seg), self.t_touch) - self.t_seg
         p, v, a = [], [], []
-        for c0, c1, c2, c3, c4, c5 in self._columns:  # Horner, per component in floats
+        for c0, c1, c2, c3, c4, c5 in self.columns:  # Horner, per component in floats
             p.append(c0 + tau * (c1 + tau * (c2 + tau * (c3 + tau * (c4 + tau * c5)))))
             v.append(c1 + tau * (2 * c2 + tau * (3 * c3 + tau * (4 * c4 + tau * 5 * c5))))
             a.append(2 * c2 + tau * (6 * c3 + tau * (12 * c4 + tau * 20 * c5)))
@@ -330,8 +343,8 @@ class SwingTrajectory:
                 v[i] += self.detour[i] * db / T
                 a[i] += self.detour[i] * ddb / (T * T)
         if t >= self.t_touch:
-            return np.array(p), np.zeros(3), np.zeros(3)
-        return np.array(p), np.array(v), np.array(a)
+            return p, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+        return p, v, a
 
     @functools.cached_property
     def path(self) -> np.ndarray:
@@ -357,9 +370,9 @@ class SwingTrajectory:
         return out
 
     @functools.cached_property
-    def _columns(self) -> tuple[tuple[float, ...], ...]:
-        """The quintic's coefficients per component (x, y, yaw) as floats."""
-        return tuple(tuple(col) for col in self.coeffs.T.tolist())
+    def coeffs(self) -> np.ndarray:
+        """(6, 3): the x, y, yaw quintic's coefficients (``columns``) as one matrix."""
+        return np.array(self.columns).T
 
     def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
         """Position, velocity, acceleration (3,), yaw and yaw rate at global time t."""
