@@ -17,8 +17,9 @@ import numpy as np
 from dcmviz.gait.plan import GaitPlan
 from dcmviz.gait.terrain import EDGE_MARGIN_M, Terrain
 from dcmviz.gait.walk import Walk
-from dcmviz.robots import Robot, clamp_to_reach
+from dcmviz.robots import Robot
 from dcmviz.robots.feet import Footstep
+from dcmviz.robots.reach import clamp_xy_to_reach
 
 
 @dataclass(frozen=True)
@@ -89,16 +90,17 @@ class RecoveryStrategy(ABC):
         stance: Footstep,
         max_adjustment: float,
     ) -> np.ndarray:
-        """Where footstep k lands for the DCM error ``xi_error``: eq. (32), horizontal,
-        reachable from ``stance`` and on its tread."""
+        """Where footstep k lands for the DCM error ``xi_error`` (its x, y are read): eq. (32),
+        horizontal, reachable from ``stance`` and on its tread."""
         nominal = plan.steps[k]
-        dv = plan.adjustment_gain(k) * np.asarray(xi_error, dtype=float)
-        dv[2] = 0.0
-        target = clamp_to_reach(
-            self.spec, stance, nominal.moved(nominal.position + dv), nominal.position,
-            max_adjustment,
+        a_adj = plan.adjustment_gain(k)
+        nx, ny, nz = nominal.position.tolist()
+        # Δv = A_adj ξ̃ (eq. 32) without its z, then the reach (clamp_to_reach), in floats
+        x, y = clamp_xy_to_reach(
+            self.spec, stance, nominal.side, nx + a_adj * float(xi_error[0]),
+            ny + a_adj * float(xi_error[1]), nx, ny, max_adjustment,
         )  # fmt: skip
-        return self.on_tread(nominal, target)
+        return self.on_tread(nominal, np.array([x, y, nz]))
 
     def tread_box(self, nominal: Footstep) -> tuple[np.ndarray, np.ndarray] | None:
         """Bounds of Δv_xy that keep footstep ``nominal`` on its tread (see :meth:`on_tread`)."""

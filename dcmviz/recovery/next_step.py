@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from dcmviz.dcm import dcm_adjustment
 from dcmviz.gait.walk import Walk
 from dcmviz.recovery.base import NO_ADJUSTMENT, Adjustment, RecoveryStrategy
 
@@ -32,24 +31,31 @@ class NextStep(RecoveryStrategy):
         k = plan.next_modifiable_step(t)
         if k is None:
             return NO_ADJUSTMENT
-        target = self.target(plan, k, xi_error, plan.stance_for(k), max_adjustment)
+        nominal = plan.steps[k]
         retarget = False
-        if walk.swing_step == k:
-            if walk.swing.frozen(t):
-                target = np.array([*walk.swing.target[:2], plan.steps[k].position[2]])
-            else:
-                retarget = True
-        dv = target - plan.steps[k].position
+        if walk.swing_step == k and walk.swing.frozen(t):  # the target the foot is going to
+            target = np.array([*walk.swing.target[:2], nominal.position[2]])
+        else:
+            target = self.target(plan, k, xi_error, plan.stance_for(k), max_adjustment)
+            retarget = walk.swing_step == k
+        # per component in floats (3-vectors: numpy's per-call overhead would be most of the
+        # cost), the same operations as on arrays
+        tx, ty, tz = target.tolist()
+        nx, ny, nz = nominal.position.tolist()
+        dx, dy, dz = tx - nx, ty - ny, tz - nz
         weights = preview.dcm_weights(local)  # w(t) of eq. (34), for both footsteps
-        delta = dcm_adjustment(preview, local, plan.selection(k), dv, weights)
-        residual = xi_error - dv / plan.adjustment_gain(k)
-        residual[2] = 0.0
+        d = float(weights @ plan.selection(k))  # Δξ_adj = (w(t) · s) Δv_adj, eq. (34)
+        delta = (d * dx, d * dy, d * dz)
+        a_adj = plan.adjustment_gain(k)
+        ex, ey = float(xi_error[0]), float(xi_error[1])
+        rx, ry = ex - dx / a_adj, ey - dy / a_adj  # the residual, horizontal
         following = None
         k2 = k + 1
-        if k2 < len(plan.steps) and float(residual @ residual) > 1e-18:
-            stance = plan.steps[k].moved(target)  # footstep k where it will land
-            target2 = self.target(plan, k2, residual, stance, max_adjustment)
-            dv2 = target2 - plan.steps[k2].position
-            delta = delta + dcm_adjustment(preview, local, plan.selection(k2), dv2, weights)
+        if k2 < len(plan.steps) and rx * rx + ry * ry > 1e-18:
+            stance = nominal.moved(target)  # footstep k where it will land
+            target2 = self.target(plan, k2, (rx, ry), stance, max_adjustment)
+            x2, y2, z2 = (target2 - plan.steps[k2].position).tolist()
+            d2 = float(weights @ plan.selection(k2))  # eq. (34) for footstep k2
+            delta = (delta[0] + d2 * x2, delta[1] + d2 * y2, delta[2] + d2 * z2)
             following = (k2, target2)
-        return Adjustment(delta, (k, target), following, retarget)
+        return Adjustment(np.array(delta), (k, target), following, retarget)

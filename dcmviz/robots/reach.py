@@ -114,9 +114,25 @@ def clamp_to_reach(
     The adjustment relative to ``nominal`` is limited to ``max_adjustment`` (m), then the result is
     clipped to the reach box of the stance foot (no leg crossing, eq. 32 is kept where possible).
     """
-    # in floats (2-vectors: numpy's per-call overhead would be most of the cost)
+    nx, ny, nz = np.asarray(nominal, dtype=float).tolist()
     px, py = float(step.position[0]), float(step.position[1])
-    nx, ny, nz = float(nominal[0]), float(nominal[1]), float(nominal[2])
+    x, y = clamp_xy_to_reach(spec, stance, step.side, px, py, nx, ny, max_adjustment)
+    return np.array([x, y, nz])
+
+
+def clamp_xy_to_reach(
+    spec: RobotSpec,
+    stance: Footstep,
+    side: str,
+    px: float,
+    py: float,
+    nx: float,
+    ny: float,
+    max_adjustment: float,
+) -> tuple[float, float]:
+    """:func:`clamp_to_reach` of the ``side`` foot's footstep at (px, py) with its nominal at
+    (nx, ny), in floats: (x, y) of the result (a recovery asks this every tick; on 2-vectors
+    numpy's per-call overhead would be most of the cost)."""
     ddx, ddy = px - nx, py - ny
     n = math.hypot(ddx, ddy)
     if n > max_adjustment:
@@ -127,8 +143,8 @@ def clamp_to_reach(
     sx, sy = float(stance.position[0]), float(stance.position[1])
     d0, d1 = px - sx, py - sy
     dx, dy = c * d0 + s * d1, -s * d0 + c * d1
-    sign = SIDE_SIGN[step.side]
+    sign = SIDE_SIGN[side]
     dx = min(max(dx, -spec.max_step_length_m), spec.max_step_length_m)
     lateral = min(max(sign * dy, spec.min_step_width_m), spec.max_step_width_m)
     dy = sign * lateral
-    return np.array([sx + c * dx - s * dy, sy + s * dx + c * dy, nz])
+    return sx + c * dx - s * dy, sy + s * dx + c * dy
