@@ -33,20 +33,35 @@ class DisturbanceObserver:
 
     def reset(self, com_velocity: NDArray) -> None:
         """p̂_0 = m ẋ(0) (eq. 42 at initialisation), F̂ = 0."""
-        self.p_hat = self.mass * np.asarray(com_velocity, dtype=float)
+        self._p_hat = (self.mass * np.asarray(com_velocity, dtype=float)).tolist()
         self.f_hat = np.zeros(3)
+        self._f_hat = [0.0, 0.0, 0.0]
         self._started = False
+
+    @property
+    def p_hat(self) -> NDArray:
+        """p̂, the estimated momentum (N·s) of eq. (46)."""
+        return np.array(self._p_hat)
 
     def update(self, com_velocity: NDArray, f_known: NDArray, dt: float) -> NDArray:
         """One sample k: p̂_k from eq. (46), then F̂_k from eq. (45); returns F̂_k (N).
 
         ``f_known`` is the known force over the last sample (k−1 → k), so eq. (46) is applied
-        when that force is known (the realised force, not only the one asked for).
+        when that force is known (the realised force, not only the one asked for).  Per
+        component in floats (3-vectors, every tick: numpy's per-call overhead would be most of
+        the cost), the same operations as on arrays.
         """
+        p = self._p_hat
         if self._started:
-            self.p_hat = self.p_hat + (np.asarray(f_known, float) + self.f_hat) * dt
+            f = self._f_hat
+            fx, fy, fz = np.asarray(f_known, float).tolist()
+            p = self._p_hat = [p[0] + (fx + f[0]) * dt, p[1] + (fy + f[1]) * dt,
+                               p[2] + (fz + f[2]) * dt]  # fmt: skip
         self._started = True
-        self.f_hat = self.k_f * (self.mass * np.asarray(com_velocity, float) - self.p_hat)
+        k_f, m = self.k_f, self.mass
+        vx, vy, vz = np.asarray(com_velocity, float).tolist()
+        f = self._f_hat = [k_f * (m * vx - p[0]), k_f * (m * vy - p[1]), k_f * (m * vz - p[2])]
+        self.f_hat = np.array(f)
         return self.f_hat
 
 
@@ -93,17 +108,36 @@ class ShiftRate:
 
     def reset(self) -> None:
         """No rate (and no previous shift: the next update only records it)."""
-        self.rate = np.zeros(3)
-        self._previous: NDArray | None = None
+        self._rate = (0.0, 0.0, 0.0)
+        self._previous: tuple[float, ...] | None = None
+
+    @property
+    def rate(self) -> NDArray:
+        """ṡ (m/s), low-passed, after the last update."""
+        return np.array(self._rate)
 
     def update(self, shift: NDArray) -> NDArray:
         """Feed this tick's shift s (m); returns the low-passed ṡ (m/s)."""
-        shift = np.asarray(shift, dtype=float)
-        if self._previous is not None:
-            raw = (shift - self._previous) / self.dt
-            self.rate = self.rate + self._share * (raw - self.rate)
-        self._previous = shift.copy()
-        return self.rate
+        return np.array(self.update_floats(*np.asarray(shift, dtype=float).tolist()))
+
+    def update_floats(self, sx: float, sy: float, sz: float) -> tuple[float, float, float]:
+        """:meth:`update` of the shift (sx, sy, sz) in floats (a per-tick loop's 3-vectors:
+        numpy's per-call overhead would be most of the cost), the same operations."""
+        rx, ry, rz = self._rate
+        previous = self._previous
+        if previous is not None:
+            dt, share = self.dt, self._share
+            raw_x = (sx - previous[0]) / dt
+            raw_y = (sy - previous[1]) / dt
+            raw_z = (sz - previous[2]) / dt
+            rx, ry, rz = (
+                rx + share * (raw_x - rx),
+                ry + share * (raw_y - ry),
+                rz + share * (raw_z - rz),
+            )
+            self._rate = (rx, ry, rz)
+        self._previous = (sx, sy, sz)
+        return rx, ry, rz
 
     def vrp(self, v_shifted: NDArray, b: float) -> NDArray:
         """v_ref + s − b ṡ from the shifted v_ref + s: the VRP of the shifted DCM reference."""

@@ -40,6 +40,7 @@ from dcmviz.dcm.interpolation import (
 )
 
 _I3 = np.eye(3)
+Triple = tuple[float, float, float]  # a 3-vector in floats (the per-tick scalar path)
 
 
 def _read_only(array: NDArray) -> NDArray:
@@ -421,10 +422,7 @@ class Preview:
         t = _as_time(t)
         s = self._schedule
         if isinstance(t, float):
-            phi, t_phi = s.locate(t)
-            f = _horner(s._f, t_phi / s._T[phi])
-            v0, dv = self._v0_list[phi], self._dv_list[phi]
-            return np.array((v0[0] + f * dv[0], v0[1] + f * dv[1], v0[2] + f * dv[2]))
+            return np.array(self._vrp_at(*s.locate(t)))
         phi, t_phi = s.locate_array(t)
         f = np.polynomial.polynomial.polyval(t_phi / s.durations[phi], s.f_coefficients)
         return self._v_ref_0[phi] + f[:, None] * self._dv[phi]
@@ -434,11 +432,7 @@ class Preview:
         t = _as_time(t)
         s = self._schedule
         if isinstance(t, float):
-            phi, t_phi = s.locate(t)
-            T = s._T[phi]
-            f_dot = _horner(s._f_dot, t_phi / T) / T
-            dv = self._dv_list[phi]
-            return np.array((f_dot * dv[0], f_dot * dv[1], f_dot * dv[2]))
+            return np.array(self._vrp_velocity_at(*s.locate(t)))
         phi, t_phi = s.locate_array(t)
         T = s.durations[phi]
         f_dot = np.polynomial.polynomial.polyval(t_phi / T, s.f_dot_coefficients) / T
@@ -449,24 +443,55 @@ class Preview:
         t = _as_time(t)
         s = self._schedule
         if isinstance(t, float):
-            phi, t_phi = s.locate(t)
-            T = s._T[phi]
-            x = (2.0 * t_phi - T) / T if s._centred[phi] else t_phi / T
-            sig = _horner(s._p[phi], x)
-            g = math.exp((t_phi - T) / s.b)
-            v0, dv, r = self._v0_list[phi], self._dv_list[phi], self._r_list[phi]
-            return np.array(
-                (
-                    v0[0] + sig * dv[0] + g * r[0],
-                    v0[1] + sig * dv[1] + g * r[1],
-                    v0[2] + sig * dv[2] + g * r[2],
-                )
-            )
+            return np.array(self._dcm_at(*s.locate(t)))
         phi, t_phi = s.locate_array(t)
         T = s.durations[phi]
         sig = s.sample_p(phi, t_phi, T)
         g = np.exp((t_phi - T) / s.b)
         return self._v_ref_0[phi] + sig[:, None] * self._dv[phi] + g[:, None] * self._r[phi]
+
+    def references(self, t: float) -> tuple[Triple, Triple, Triple]:
+        """v_ref(t), ξ_ref(t) and v̇_ref(t) at one global time t (s) as float triples, with one
+        phase lookup: what a controller reads every tick, the same numbers as :meth:`vrp`,
+        :meth:`dcm` and :meth:`vrp_velocity`."""
+        phi, t_phi = self._schedule.locate(float(t))
+        return (
+            self._vrp_at(phi, t_phi),
+            self._dcm_at(phi, t_phi),
+            self._vrp_velocity_at(phi, t_phi),
+        )
+
+    # the scalar path, per component in floats (3-vectors: numpy's per-call overhead would be
+    # most of the cost), at phase φ and local time t_φ
+
+    def _vrp_at(self, phi: int, t_phi: float) -> Triple:
+        """Eq. (5): v_ref_0 + f(t) Δv."""
+        s = self._schedule
+        f = _horner(s._f, t_phi / s._T[phi])
+        v0, dv = self._v0_list[phi], self._dv_list[phi]
+        return (v0[0] + f * dv[0], v0[1] + f * dv[1], v0[2] + f * dv[2])
+
+    def _vrp_velocity_at(self, phi: int, t_phi: float) -> Triple:
+        """ḟ(t) Δv, the time derivative of eq. (5)."""
+        s = self._schedule
+        T = s._T[phi]
+        f_dot = _horner(s._f_dot, t_phi / T) / T
+        dv = self._dv_list[phi]
+        return (f_dot * dv[0], f_dot * dv[1], f_dot * dv[2])
+
+    def _dcm_at(self, phi: int, t_phi: float) -> Triple:
+        """Eq. (10) regrouped: v_ref_0 + p(t) Δv + γ(t) r (module docstring)."""
+        s = self._schedule
+        T = s._T[phi]
+        x = (2.0 * t_phi - T) / T if s._centred[phi] else t_phi / T
+        sig = _horner(s._p[phi], x)
+        g = math.exp((t_phi - T) / s.b)
+        v0, dv, r = self._v0_list[phi], self._dv_list[phi], self._r_list[phi]
+        return (
+            v0[0] + sig * dv[0] + g * r[0],
+            v0[1] + sig * dv[1] + g * r[1],
+            v0[2] + sig * dv[2] + g * r[2],
+        )
 
     def dcm_velocity(self, t: float | ArrayLike) -> NDArray[np.float64]:
         """DCM reference velocity ξ̇_ref(t) (m/s): time derivative of eq. (10), = (ξ − v)/b (6)."""

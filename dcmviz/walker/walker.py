@@ -20,19 +20,13 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from dcmviz import GRAVITY
 from dcmviz.config import Config, ControlSection
-from dcmviz.dcm import (
-    DisturbanceObserver,
-    ShiftRate,
-    com_force,
-    moment_shift,
-    reference_shift,
-    vrp_tracking,
-)
+from dcmviz.dcm import DisturbanceObserver, ShiftRate, moment_shift, reference_shift
 from dcmviz.dcm.sustained import SustainedLoad
 from dcmviz.gait import GaitPlan, Planner
 from dcmviz.gait.height import walk_height_m
@@ -40,12 +34,15 @@ from dcmviz.gait.terrain import Terrain, terrain_of
 from dcmviz.gait.walk import Walk
 from dcmviz.recovery import NO_ADJUSTMENT, Adjustment, RecoveryStrategy, make_strategy
 from dcmviz.robots import SIDES, Robot
+from dcmviz.robots.feet import Footstep
 from dcmviz.robots.gains import Gains
 from dcmviz.walker.state import FootTarget, MeasuredState, WalkerCommand, WalkerStatus
 
 E_Z = np.array([0.0, 0.0, 1.0])
 _NO_MOMENT = np.zeros(3)
 _NO_MOMENT.flags.writeable = False
+_ZERO = np.zeros(3)  # a standing foot's velocity and acceleration (shared: read-only)
+_ZERO.flags.writeable = False
 
 
 class Walker:
@@ -71,7 +68,7 @@ class Walker:
         self.terrain = terrain if terrain is not None else terrain_of(config.terrain)
         self.planner = Planner(config.gait, config.dcm, spec, self.terrain)
         self.mass = float(mass)
-        self._weight = self.mass * GRAVITY * E_Z  # m g e_z (N), once instead of twice a tick
+        self._weight_xyz = (0.0, 0.0, self.mass * GRAVITY)  # m g e_z (N), once (floats)
         self.dt = float(dt)
         self.b = config.dcm.b
         self.observer = DisturbanceObserver(self.mass, config.control.k_f)
@@ -85,6 +82,10 @@ class Walker:
         self._first_version = plan_version
         self._adjustment: Adjustment = NO_ADJUSTMENT
         self._status: WalkerStatus | None = None
+        # per side: the footstep a foot stands on and its target (_standing_target)
+        self._standing: dict[str, tuple[Footstep, FootTarget]] = {}
+        # H(0) of the legs (gait.height.walk_height_m), the reach at no lean (_lean_height)
+        self._reach_upright = walk_height_m(spec, 0.0)
 
     def set_config(self, config: Config, state: MeasuredState) -> None:
         """Adopt a preset that differs from the walked one in its ``[control]`` section only,
@@ -121,6 +122,7 @@ class Walker:
         self.strategy = self._strategy(self.control)
         self._adjustment = NO_ADJUSTMENT
         self._last_contact_force = self.mass * GRAVITY * E_Z
+        self._standing = {}
         self.observer.reset(state.com_velocity)
         self.shift_rate.reset()
         self.held.reset()
@@ -129,6 +131,9 @@ class Walker:
 
     # -- one tick -------------------------------------------------------------------------------
     def step(self, state: MeasuredState) -> WalkerCommand:
+        """One tick of §III.  The 3-vectors are worked per component in floats (numpy's
+        per-call overhead would be most of their cost), with the same operations in the same
+        order as the equations' vector forms cited; arrays are built for what is handed on."""
         if self.walk is None:
             self.reset(state)
         walk = self.walk
@@ -144,17 +149,31 @@ class Walker:
         if known is None:
             known = self._last_contact_force
         if cfg.observer:
-            f_hat = self.observer.update(state.com_velocity, known - self._weight, self.dt)
+            kx, ky, kz = np.asarray(known, float).tolist()
+            gx, gy, gz = self._weight_xyz
+            f_hat = self.observer.update(state.com_velocity, (kx - gx, ky - gy, kz - gz), self.dt)
+            fx, fy, fz = f_hat.tolist()
+            c = -(b * b / m)  # s = −b²/m F̂, eqs. (47)–(49) (reference_shift)
+            sx, sy, sz = c * fx, c * fy, c * fz
+            if state.external_moment is not None:  # (−τ̂_y, τ̂_x, 0)/(m g) (moment_shift)
+                tx, ty, _ = np.asarray(state.external_moment, float).tolist()
+                mg = m * GRAVITY
+                sx, sy, sz = sx + -ty / mg, sy + tx / mg, sz + 0.0 / mg
         else:
             f_hat = np.zeros(3)
-        shift = reference_shift(f_hat, m, b) if cfg.observer else np.zeros(3)
-        if cfg.observer and state.external_moment is not None:
-            shift = shift + moment_shift(state.external_moment, m)
+            fx = fy = fz = sx = sy = sz = 0.0
         preview = walk.plan.preview
         local = t - walk.plan.t0
-        v_plan = preview.vrp(local)  # the plan's VRP now (clamped to the plan's span)
+        # the plan's VRP, DCM and VRP rate now (clamped to the plan's span)
+        v_plan, xi_plan, v_rate = preview.references(local)
         if cfg.observer:
-            shift = self._lean_height(shift, self._planned_height(v_plan, contact.swing_side))
+            height = self._planned_height(v_plan, contact.swing_side)
+            sx, sy, sz = self._lean_height((sx, sy, sz), height)
+        shift = np.array((sx, sy, sz))  # as the strategies take it
+        com_x, com_y, com_z = state.com.tolist()
+        vel_x, vel_y, vel_z = state.com_velocity.tolist()
+        xi_x, xi_y, xi_z = com_x + b * vel_x, com_y + b * vel_y, com_z + b * vel_z  # eq. (1)
+        xi = np.array((xi_x, xi_y, xi_z))
         held = None
         if self.strategy.uses_held_load:
             held = np.zeros(3)
@@ -164,9 +183,7 @@ class Walker:
                 if state.external_moment is not None:  # (the backend's held moment)
                     held = held + moment_shift(state.external_moment, m)
         if cfg.step_adjustment and not touched:  # a strategy may re-time the walk first
-            plan = self.strategy.retime(
-                walk, t, state.dcm(b), shift, cfg.max_step_adjustment, held=held
-            )
+            plan = self.strategy.retime(walk, t, xi, shift, cfg.max_step_adjustment, held=held)
             if plan is not None:
                 walk.retime(t, plan)
                 # a re-timed swing may end (or a double support give way to a swing) now: commit
@@ -178,30 +195,40 @@ class Walker:
         if walk.plan.preview is not preview:  # re-timed: the same time in the new plan
             preview = walk.plan.preview
             local = t - walk.plan.t0
-            v_plan = preview.vrp(local)
-        xi_ref = preview.dcm(local) + shift  # eq. (48)
-        v_ref = v_plan + shift  # eq. (47)
-        xi = state.dcm(b)
-
+            v_plan, xi_plan, v_rate = preview.references(local)
         if local >= preview.duration:  # the plan has ended: stand on its final VRP (D3)
-            xi_ref = v_ref = preview.waypoints[-1] + shift
+            v_plan = xi_plan = preview.waypoints[-1].tolist()
+            v_rate = (0.0, 0.0, 0.0)
+        ref_x, ref_y, ref_z = xi_plan[0] + sx, xi_plan[1] + sy, xi_plan[2] + sz  # eq. (48)
+        vr_x, vr_y, vr_z = v_plan[0] + sx, v_plan[1] + sy, v_plan[2] + sz  # eq. (47)
         if cfg.observer:  # a shift that changes: the VRP of the shifted ξ_ref (ShiftRate)
-            self.shift_rate.update(shift)
-            v_ref = self.shift_rate.vrp(v_ref, b)
+            rx, ry, rz = self.shift_rate.update_floats(sx, sy, sz)
+            vr_x, vr_y, vr_z = vr_x - b * rx, vr_y - b * ry, vr_z - b * rz
+        xi_ref = np.array((ref_x, ref_y, ref_z))
         if cfg.step_adjustment:  # push recovery (§III-A)
             adjustment = self.strategy.adjust(walk, t, local, xi - xi_ref, cfg.max_step_adjustment)
             if adjustment.retarget_swing:
                 walk.retarget_swing(t, adjustment.target[1])
-            xi_adj = xi_ref + adjustment.delta
+            dx, dy, dz = adjustment.delta.tolist()
+            adj_x, adj_y, adj_z = ref_x + dx, ref_y + dy, ref_z + dz  # eqs. (33), (49)
+            xi_adj = np.array((adj_x, adj_y, adj_z))
         else:
             adjustment, xi_adj = NO_ADJUSTMENT, xi_ref
+            adj_x, adj_y, adj_z = ref_x, ref_y, ref_z
         self._adjustment = adjustment
 
-        v_cmd = vrp_tracking(v_ref, xi, xi_adj, cfg.k_xi, b)  # eq. (41) (eq. 24 if ξ_adj = ξ_ref)
+        # v = v_ref + (1 + k_ξ b)(ξ − ξ_adj), eq. (41) (eq. 24 if ξ_adj = ξ_ref; vrp_tracking)
+        k = 1.0 + cfg.k_xi * b
+        v_cmd = np.array(
+            (vr_x + k * (xi_x - adj_x), vr_y + k * (xi_y - adj_y), vr_z + k * (xi_z - adj_z))
+        )
         if cfg.step_adjustment:
             v_cmd = self.strategy.shape_vrp(v_cmd, contact.support, walk.placed, shift)
-        force = com_force(state.com, v_cmd, m, b)  # eq. (4)
-        contact_force = force + self._weight - f_hat
+        vx, vy, vz = v_cmd.tolist()
+        g = m / (b * b)  # F = m/b² (x − v), eq. (4) (com_force)
+        force_x, force_y, force_z = g * (com_x - vx), g * (com_y - vy), g * (com_z - vz)
+        gx, gy, gz = self._weight_xyz  # the feet push with F + m g e_z − F̂
+        contact_force = np.array((force_x + gx - fx, force_y + gy - fy, force_z + gz - fz))
         self._last_contact_force = contact_force
 
         feet = {}
@@ -210,29 +237,37 @@ class Walker:
                 p, v, a, yaw, yaw_rate = walk.swing.sample(t)
                 feet[side] = FootTarget(p, v, a, yaw, yaw_rate)
             else:
-                placed = walk.placed[side]
-                feet[side] = FootTarget(placed.position, yaw=placed.yaw)
+                feet[side] = self._standing_target(walk.placed[side])
 
         return WalkerCommand(
             t=t,
             support=contact.support,
             feet=feet,
             swing_side=contact.swing_side,
-            com_force=force,
+            com_force=np.array((force_x, force_y, force_z)),
             contact_force=contact_force,
             xi=xi,
             xi_ref=xi_ref,
             xi_adj=xi_adj,
-            v_ref=v_ref,
+            v_ref=np.array((vr_x, vr_y, vr_z)),
             v_cmd=v_cmd,
             f_hat=f_hat,
-            v_cmd_rate=preview.vrp_velocity(local) if local < preview.duration else np.zeros(3),
+            v_cmd_rate=np.array(v_rate),
             phase=contact.phase,
             swing_progress=contact.swing_progress,
             step_index=walk.steps_completed,
             done=walk.done(t),
             legs_may_cross=self.strategy.crosses_legs,
         )
+
+    def _standing_target(self, placed: Footstep) -> FootTarget:
+        """The target of a foot that stands at ``placed``: the same object for every tick it
+        stands there (its arrays read-only)."""
+        cached = self._standing.get(placed.side)
+        if cached is None or cached[0] is not placed:
+            target = FootTarget(placed.position, _ZERO, _ZERO, placed.yaw)
+            self._standing[placed.side] = cached = (placed, target)
+        return cached[1]
 
     def copy(self) -> Walker:
         """An independent copy that continues exactly as this walker would from its last tick
@@ -244,15 +279,15 @@ class Walker:
             shared += [walk.plan, walk.nominal_plan, walk.records, walk.planner]
         return copy.deepcopy(self, {id(x): x for x in shared})
 
-    def _planned_height(self, v_plan: np.ndarray, swing_side: str | None) -> float:
+    def _planned_height(self, v_plan: Sequence[float], swing_side: str | None) -> float:
         """The plan's VRP height (m) now (``v_plan``, the plan's VRP at this tick) above the
         foot whose leg reaches furthest: the stance foot in single support, the lower foot in
         double support.  The plan has already lowered it where the stride spans the legs
         (:func:`dcmviz.gait.height.step_heights`)."""
-        feet = [f for s, f in self.walk.placed.items() if s != swing_side]
-        return float(v_plan[2]) - min(float(f.position[2]) for f in feet)
+        ground = min(float(f.position[2]) for s, f in self.walk.placed.items() if s != swing_side)
+        return float(v_plan[2]) - ground
 
-    def _lean_height(self, shift: np.ndarray, height: float) -> np.ndarray:
+    def _lean_height(self, shift: Sequence[float], height: float) -> Sequence[float]:
         """The reference shift with the CoM lowered where leaning away from a sustained force
         asks more of the legs than they reach at the plan's ``height``: each leg spans the lean
         s = |shift_xy| from hip to ankle (:func:`dcmviz.gait.height.walk_height_m`), and the
@@ -260,19 +295,20 @@ class Walker:
         side by half the foot spacing times its sine: the CoM comes down to what the legs then
         reach, from the height the plan already asks for (lowering from b's nominal height
         instead counted the plan's own lowering twice: Romeo's knees, 38 N m for 40 kg, gave way
-        under a 5 % pull at 12 mm below its walking height)."""
+        under a 5 % pull at 12 mm below its walking height).  ``shift`` as given, or a new
+        (x, y, z) in floats."""
         lean = math.hypot(float(shift[0]), float(shift[1]))
         spec = self.spec
         if lean <= 0.0 or spec.leg_length_m is None:
             return shift
         hip_rise = 0.5 * spec.foot_spacing_m * math.sin(math.atan2(lean, height))
-        reach = spec.max_com_height_m + walk_height_m(spec, lean) - walk_height_m(spec, 0.0)
+        reach = spec.max_com_height_m + walk_height_m(spec, lean) - self._reach_upright
         # from the height the plan asks for, but no more than the legs reach standing (a start
         # from a higher standing posture): the lowering is what the lean adds, 0 at no lean
         drop = min(0.0, reach - hip_rise - min(height, spec.max_com_height_m))
         if drop >= 0.0:
             return shift
-        return np.array([shift[0], shift[1], shift[2] + drop])
+        return (shift[0], shift[1], shift[2] + drop)
 
     # -- what the walker publishes --------------------------------------------------------------
     @property
