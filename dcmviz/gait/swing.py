@@ -161,8 +161,9 @@ def detour(
     c, sn = math.cos(stance.yaw), math.sin(stance.yaw)
     cx, cy = columns[0], columns[1]
     x0, y0 = cx[0], cy[0]
-    x1 = sum(cx[i] * T**i for i in range(6))
-    y1 = sum(cy[i] * T**i for i in range(6))
+    T_powers = [T**i for i in range(6)]
+    x1 = sum(cx[i] * T_powers[i] for i in range(6))
+    y1 = sum(cy[i] * T_powers[i] for i in range(6))
     sx, sy = stance.position[:2].tolist()
     lat0 = -(x0 - sx) * sn + (y0 - sy) * c
     lat1 = -(x1 - sx) * sn + (y1 - sy) * c
@@ -330,11 +331,13 @@ class SwingTrajectory:
     def _horizontal(self, t: float) -> tuple[list[float], list[float], list[float]]:
         """x, y, yaw and their rates and accelerations at global time t (floats)."""
         tau = min(max(t, self.t_seg), self.t_touch) - self.t_seg
-        p, v, a = [], [], []
-        for c0, c1, c2, c3, c4, c5 in self.columns:  # Horner, per component in floats
-            p.append(c0 + tau * (c1 + tau * (c2 + tau * (c3 + tau * (c4 + tau * c5)))))
-            v.append(c1 + tau * (2 * c2 + tau * (3 * c3 + tau * (4 * c4 + tau * 5 * c5))))
-            a.append(2 * c2 + tau * (6 * c3 + tau * (12 * c4 + tau * 20 * c5)))
+        columns = self.columns  # Horner, per component in floats
+        p = [c0 + tau * (c1 + tau * (c2 + tau * (c3 + tau * (c4 + tau * c5))))
+             for c0, c1, c2, c3, c4, c5 in columns]  # fmt: skip
+        v = [c1 + tau * (2 * c2 + tau * (3 * c3 + tau * (4 * c4 + tau * 5 * c5)))
+             for _, c1, c2, c3, c4, c5 in columns]  # fmt: skip
+        a = [2 * c2 + tau * (6 * c3 + tau * (12 * c4 + tau * 20 * c5))
+             for _, _, c2, c3, c4, c5 in columns]  # fmt: skip
         if self.detour != (0.0, 0.0) and t < self.t_touch:
             T = self.t_touch - self.t_seg
             b, db, ddb = _bump(tau / T)
