@@ -47,14 +47,27 @@ class Box:
         hx, hy = 0.5 * self.size[0] - margin, 0.5 * self.size[1] - margin
         return (np.abs(p[..., 0]) <= hx) & (np.abs(p[..., 1]) <= hy)
 
+    def contains_point(self, x: float, y: float, margin: float = 0.0) -> bool:
+        """:meth:`contains` of the one point (x, y), in floats (the recovery asks every tick)."""
+        px, py = self._local_point(x, y)
+        return abs(px) <= 0.5 * self.size[0] - margin and abs(py) <= 0.5 * self.size[1] - margin
+
     def clamp(self, xy: np.ndarray, margin: float) -> np.ndarray:
-        """The nearest point of the top face at least ``margin`` inside its edges."""
-        p = self.local(xy)
+        """The nearest point of the top face at least ``margin`` inside its edges (in floats:
+        one point, asked every tick)."""
+        x, y = np.asarray(xy, dtype=float).tolist()
+        px, py = self._local_point(x, y)
         hx = max(0.5 * self.size[0] - margin, 0.0)
         hy = max(0.5 * self.size[1] - margin, 0.0)
-        q = np.array([min(max(p[0], -hx), hx), min(max(p[1], -hy), hy)])
+        qx, qy = min(max(px, -hx), hx), min(max(py, -hy), hy)
         c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return np.asarray(self.center) + np.array([c * q[0] - s * q[1], s * q[0] + c * q[1]])
+        return np.array((self.center[0] + (c * qx - s * qy), self.center[1] + (s * qx + c * qy)))
+
+    def _local_point(self, x: float, y: float) -> tuple[float, float]:
+        """:meth:`local` of the one point (x, y), the same operations in floats."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        dx, dy = x - self.center[0], y - self.center[1]
+        return c * dx + s * dy, -s * dx + c * dy
 
 
 @dataclass(frozen=True)
@@ -76,10 +89,11 @@ class Terrain:
         return h
 
     def support_under(self, xy: np.ndarray) -> Box | None:
-        """The box whose top face a point stands on (None: the floor)."""
+        """The box whose top face a point (2,) stands on (None: the floor)."""
+        x, y = np.asarray(xy, dtype=float).tolist()
         best: Box | None = None
         for box in self.boxes:
-            if bool(box.contains(xy)) and (best is None or box.top > best.top):
+            if box.contains_point(x, y) and (best is None or box.top > best.top):
                 best = box
         return best
 

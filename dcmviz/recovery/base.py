@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dcmviz.gait.plan import GaitPlan
-from dcmviz.gait.terrain import EDGE_MARGIN_M, Terrain
+from dcmviz.gait.terrain import EDGE_MARGIN_M, Box, Terrain
 from dcmviz.gait.walk import Walk
 from dcmviz.robots import Robot
 from dcmviz.robots.feet import Footstep
@@ -32,6 +32,8 @@ class Adjustment:
     retarget_swing: bool = False  # the swinging foot heads for ``target`` from now on
 
 
+TREADS_KEPT = 64  # footsteps whose tread a strategy remembers (RecoveryStrategy._tread)
+
 NO_ADJUSTMENT = Adjustment(np.zeros(3), None, None)
 NO_ADJUSTMENT.delta.flags.writeable = False
 
@@ -46,6 +48,7 @@ class RecoveryStrategy(ABC):
     def __init__(self, robot: Robot, terrain: Terrain, b: float, dt: float) -> None:
         self.robot, self.spec = robot, robot.spec
         self.terrain, self.b, self.dt = terrain, float(b), float(dt)
+        self._treads: dict[tuple[float, float], Box | None] = {}  # see _tread
 
     @abstractmethod
     def adjust(
@@ -106,13 +109,24 @@ class RecoveryStrategy(ABC):
         """Bounds of Δv_xy that keep footstep ``nominal`` on its tread (see :meth:`on_tread`)."""
         if self.terrain.flat:
             return None
-        box = self.terrain.support_under(nominal.position[:2])
+        box = self._tread(nominal)
         if box is None:
             return None
         p = nominal.position[:2]
         corners = np.array([box.clamp(p + d, self._tread_margin(box)) for d in
                             ((-9.0, -9.0), (9.0, 9.0), (-9.0, 9.0), (9.0, -9.0))])  # fmt: skip
         return corners.min(axis=0) - p, corners.max(axis=0) - p
+
+    def _tread(self, nominal: Footstep) -> Box | None:
+        """The tread footstep ``nominal`` stands on (None: the floor), looked up once per
+        footstep: the recovery asks for the same ones every tick."""
+        key = (float(nominal.position[0]), float(nominal.position[1]))
+        treads = self._treads
+        if key not in treads:
+            if len(treads) >= TREADS_KEPT:  # an endless walk: the latest footsteps only
+                treads.clear()
+            treads[key] = self.terrain.support_under(nominal.position[:2])
+        return treads[key]
 
     def _tread_margin(self, box) -> float:
         margin = EDGE_MARGIN_M + 0.5 * math.hypot(self.spec.foot_length_m, self.spec.foot_width_m)
@@ -127,7 +141,7 @@ class RecoveryStrategy(ABC):
         tread cannot take goes to the next footstep like any other limit."""
         if self.terrain.flat:
             return target
-        box = self.terrain.support_under(nominal.position[:2])
+        box = self._tread(nominal)
         if box is None:
             return target
         xy = box.clamp(target[:2], self._tread_margin(box))
