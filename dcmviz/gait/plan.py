@@ -187,24 +187,23 @@ class GaitPlan:
                 0.0,
             )
         phase, t_phase = self.preview.phase_at(local)
-        phase, t_phase = int(phase), float(t_phase)
-        kind, k, side, T = self._phases[phase]
-        if side is not None:  # single support
+        phase = int(phase)
+        kind = self.phase_kind[phase]
+        k = self.phase_step[phase]
+        if kind == "ss":
+            side = self.steps[k].side
+            T = float(self.preview.durations[phase])
             return ContactState(
-                phase, t_phase, kind, {side: False, OTHER[side]: True}, side, k,
-                min(1.0, t_phase / T),
-            )  # fmt: skip
-        return ContactState(phase, t_phase, kind, {"left": True, "right": True}, None, k, 0.0)
-
-    @cached_property
-    def _phases(self) -> tuple[tuple[str, int, str | None, float], ...]:
-        """Per phase: its kind, footstep, the side that swings (single support; else None) and
-        its duration (s): what :meth:`contact` reads every tick, once per plan."""
-        return tuple(
-            (kind, k, self.steps[k].side if kind == "ss" else None, T)
-            for kind, k, T in zip(
-                self.phase_kind, self.phase_step, self.preview.durations.tolist(), strict=True
+                phase,
+                float(t_phase),
+                kind,
+                {side: False, OTHER[side]: True},
+                side,
+                k,
+                min(1.0, float(t_phase) / T),
             )
+        return ContactState(
+            phase, float(t_phase), kind, {"left": True, "right": True}, None, k, 0.0
         )
 
     def next_modifiable_step(self, t: float) -> int | None:
