@@ -333,3 +333,44 @@ def test_the_sole_box_is_the_box_of_the_soles_corners_and_kept_per_placement() -
     flat = [Footstep("left", np.array([0.3, -0.1, 0.0]), 0.0)]
     corners = sole_corners(flat[0].position, 0.0, length, width)
     np.testing.assert_array_equal(strategy.sole_box(flat)[0], corners.min(axis=0))
+
+
+@pytest.mark.parametrize("centre", [(0.0, 0.0), (0.05, 0.13), (-0.08, -0.1)])
+def test_chained_adjustment_boxes_against_a_general_solver(centre) -> None:
+    """Sideways each footstep's ±max box is centred where the footstep before it moved (the first
+    one's where the foot it steps from landed, ``centre``), forwards round its nominal place:
+    the QP's answer for a large error, the reach rows off, equals a bounded least-squares solve
+    of the same cost in u = (Δv_x,i, Δv_y,i − Δv_y,i−1) (Δv_y,−1 = centre_y), where those boxes
+    are simple bounds |u| ≤ max (scipy's ``lsq_linear``; the plan walks along x)."""
+    from scipy.optimize import lsq_linear
+
+    config = Config()
+    plan = plan_from_config(config)
+    b, k = config.dcm.b, 3
+    t = plan.phase_start(2 * k + 2) + 0.1
+    cands = candidates_from_dense(plan, k, t)
+    spec, limit = load_robot("talos").spec, 0.2
+    error = np.array([0.35, 0.5, 0.0])  # far beyond what ±0.2 m boxes round Δv = 0 can take
+    got = recovery.qp.solve_full(
+        cands, plan.stance_for(k), error, spec, limit, b, constrained=False, centre=centre
+    ).dv
+    n = len(cands)
+    lead = np.array([c.lead_time_s for c in cands])
+    omega = np.exp(np.maximum(lead - lead[0], 0.0) / b)
+    C = np.hstack([c.leverage * np.eye(2) for c in cands])
+    rho = recovery.qp.CONDITION_WEIGHT
+    # ‖M Δv − r‖² = Σ ω_j |Δv_j|² + ρ |ξ̃ − C Δv|², Δv = c₀ + L u (L: cumulative sums)
+    M = np.vstack([np.sqrt(rho) * C, np.diag(np.repeat(np.sqrt(omega), 2))])
+    r = np.concatenate([np.sqrt(rho) * error[:2], np.zeros(2 * n)])
+    assert all(c.nominal.yaw == 0.0 for c in cands)
+    L = np.kron(np.eye(n), np.diag([1.0, 0.0])) + np.kron(
+        np.tril(np.ones((n, n))), np.diag([0.0, 1.0])
+    )
+    c0 = np.tile([0.0, centre[1]], n)
+    ref = lsq_linear(M @ L, r - M @ c0, bounds=(-limit, limit), tol=1e-14)
+    assert ref.success
+    np.testing.assert_allclose(np.array(got)[:, :2].ravel(), c0 + L @ ref.x, atol=1e-7)
+    dv = np.array(got)[:, :2]
+    sideways = np.diff(np.r_[centre[1], dv[:, 1]])
+    assert np.all(np.abs(dv[:, 0]) <= limit + 1e-9) and np.all(np.abs(sideways) <= limit + 1e-9)
+    assert np.any(np.abs(sideways) > limit - 1e-6)  # the error is large enough to reach an edge

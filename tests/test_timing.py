@@ -160,3 +160,44 @@ def test_a_swing_the_timing_ends_lands_where_the_foot_is() -> None:
         if command.swing_side is not None:
             last[command.swing_side] = np.array(command.feet[command.swing_side].position)
     assert checked >= 3 and shortened >= 1
+
+
+def test_a_persisting_push_is_a_cop_box_moved_by_the_observers_shift() -> None:
+    """The re-timing's capture check with a push assumed to go on for τ moves the CoP boxes of
+    the first τ s by s = −b² F/m (``step_timing._persist``): its reachable DCMs equal those of
+    ξ̇ = (ξ − p)/b + b F/m integrated (RK4) with the CoP p held at each box's corners and F on
+    for the first τ s."""
+    from dcmviz.recovery.step_timing import _persist
+
+    b, m = 0.25, 33.0
+    force = np.array([48.0, -20.0])
+    shift = -(b**2) * force / m
+    segments = [
+        (0.25, np.array([-0.05, -0.15]), np.array([0.15, 0.12])),  # double support
+        (0.5, np.array([0.0, 0.05]), np.array([0.2, 0.12])),  # single support
+        (0.2, np.array([0.2, -0.1]), np.array([0.4, 0.12])),
+    ]
+    xi0, tau = np.array([0.08, 0.1]), 0.4
+    lo, hi = timing.reachable_dcm(xi0, _persist(segments, tau, shift), b)
+
+    def integrate(pick) -> np.ndarray:
+        xi, t, dt = xi0.copy(), 0.0, 1e-4
+        for length, box_lo, box_hi in segments:
+            p = np.where(pick, box_hi, box_lo)
+            for _ in range(round(length / dt)):
+
+                def rate(x, s, p=p):
+                    return (x - p) / b + (b * force / m if s < tau else 0.0)
+
+                k1 = rate(xi, t)
+                k2 = rate(xi + 0.5 * dt * k1, t + 0.5 * dt)
+                k3 = rate(xi + 0.5 * dt * k2, t + 0.5 * dt)
+                k4 = rate(xi + dt * k3, t + dt)
+                xi, t = xi + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4), t + dt
+        return xi
+
+    # the lowest ξ comes from the CoP held at the boxes' upper corners, and the reverse
+    np.testing.assert_allclose(lo, integrate(np.array([True, True])), atol=2e-4)
+    np.testing.assert_allclose(hi, integrate(np.array([False, False])), atol=2e-4)
+    plain_lo, plain_hi = timing.reachable_dcm(xi0, segments, b)
+    assert np.all(np.abs(lo - plain_lo) > 0.01)  # the force's 0.4 s move it by centimetres

@@ -32,7 +32,10 @@ from dcmviz.dcm import Preview
 from dcmviz.dcm.preview import PhaseSchedule
 from dcmviz.gait.plan import GaitPlan
 
-SS_SCALE = (1.0, 0.6)  # single support: nominal, short (the stepping-out foot hurries)
+# single support: nominal, short (the stepping-out foot hurries), shortest (0.35 s of a 0.7 s
+# single support: the foot that must land before the other can step out lands as soon as the
+# walk's swings allow, as in the swing bound's walks, dcmviz.sweep.bounds.swing_walk)
+SS_SCALE = (1.0, 0.6, 0.5)
 # double support: nominal, short (the weight moves sooner), long (the CoP brings ξ back)
 DS_SCALE = (1.0, 0.5, 2.5, 5.0)
 MIN_SS_S = 0.35  # s, shortest single support (the swing must still lift and place the foot)

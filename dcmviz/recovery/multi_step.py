@@ -99,11 +99,26 @@ class MultiStep(RecoveryStrategy):
         candidates, capacity = self._candidates(walk, plan, t, local, k)
         if region is not None:
             candidates = [dataclasses.replace(candidates[0], region=region), *candidates[1:]]
+        stance = plan.stance_for(k)
         solution = qp.solve_full(
-            candidates, plan.stance_for(k), xi_error, self.spec, max_adjustment, self.b,
-            capacity=capacity,
+            candidates, stance, xi_error, self.spec, max_adjustment, self.b,
+            capacity=capacity, centre=self.carried(walk, stance),
         )  # fmt: skip
         return solution, candidates
+
+    @staticmethod
+    def carried(walk: Walk, stance: Footstep) -> np.ndarray:
+        """Where footstep k's adjustment box is centred (:func:`.qp.solve_full`'s ``centre``, the
+        later boxes chained to it): as far from its nominal place as the foot it steps from
+        landed from its own (``StepRecord.adjustment``; 0 before any landing).  The box bounds
+        how far a footstep moves from where the walk would have put it *from that foot*: after
+        the swinging foot was moved 13 cm in towards the stance foot (Alexander, the paper's
+        push pair at 1.5x, a 0.24 m stance), a box round the next footstep's nominal place kept
+        it 0.41 m from that foot where the robot steps 0.60 m wide, and ξ ran past it."""
+        records = walk.records
+        if not records or records[-1].side != stance.side:
+            return np.zeros(2)
+        return np.asarray(records[-1].adjustment[:2], dtype=float)
 
     def _candidates(
         self, walk: Walk, plan: GaitPlan, t: float, local: float, k: int
