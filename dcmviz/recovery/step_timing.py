@@ -40,8 +40,6 @@ class MultiStepTiming(MultiStep):
         self._retime_tick = 0
         self._nominal_plan: GaitPlan | None = None  # the plan the target was chosen against
         self._push_start: float | None = None  # s, when the push under way began (None: none)
-        # (s, (2,) m): for how long the capture check assumes the push goes on, and its shift
-        self._persisting: tuple[float, np.ndarray] | None = None
 
     def retime(
         self,
@@ -53,7 +51,7 @@ class MultiStepTiming(MultiStep):
         held: np.ndarray | None = None,
     ) -> GaitPlan | None:
         plan = walk.plan
-        self._persisting = self._push_persistence(t, shift, held)
+        persisting = self._push_persistence(t, shift, held)
         if walk.nominal_plan is not self._nominal_plan:  # a new walk or a replanned horizon
             self._nominal_plan = walk.nominal_plan
             self._timing_target = None
@@ -88,7 +86,7 @@ class MultiStepTiming(MultiStep):
                 p = timing.retimed(plan, durations)
                 error = xi - (p.preview.dcm(local) + shift)
                 solution, _ = self.solve(walk, p, t, local, k, error, max_adjustment)
-                short = self._capture_shortfall(walk, p, t, k, capture_xi, solution.dv)
+                short = self._capture_shortfall(walk, p, t, k, capture_xi, solution.dv, persisting)
                 score = (
                     float(solution.slack @ solution.slack)
                     + CAPTURE_WEIGHT * float(short @ short)
@@ -140,13 +138,21 @@ class MultiStepTiming(MultiStep):
         return PUSH_PERSISTENCE * lasted, np.array([ex, ey])
 
     def _capture_shortfall(
-        self, walk: Walk, plan: GaitPlan, t: float, k: int, xi: np.ndarray, dvs: list[np.ndarray]
+        self,
+        walk: Walk,
+        plan: GaitPlan,
+        t: float,
+        k: int,
+        xi: np.ndarray,
+        dvs: list[np.ndarray],
+        persisting: tuple[float, np.ndarray] | None = None,
     ) -> np.ndarray:
         """How far from capturable ``plan``'s timing leaves ξ (timing.capture_shortfall): the
         supports from now until footstep k+1's foot takes the weight (the end of the double
         support after it lands; the stance sole, then both soles, …, with footsteps k, k+1 where
         the QP puts them), the region being footstep k+1's sole: the foot after it cannot cross
-        to the side it stands on.  Without a footstep k+1: footstep k's sole at its touchdown."""
+        to the side it stands on.  Without a footstep k+1: footstep k's sole at its touchdown.
+        ``persisting`` (:meth:`_push_persistence`): the push assumed to go on for that long."""
         feet = {s: walk.placed[s] for s in SIDES}
         landed = [plan.steps[j].moved(plan.steps[j].position + dvs[j - k])
                   for j in range(k, min(k + 2, len(plan.steps)))]  # fmt: skip
@@ -164,8 +170,8 @@ class MultiStepTiming(MultiStep):
         if len(landed) == 2 and k + 2 < len(plan.steps):
             t_lift = plan.swing_window(k + 2)[0]
             segments.append((max(t_lift - now, 0.0), *self.sole_box([feet[x] for x in SIDES])))
-        if self._persisting is not None:  # the push goes on: its shift moves the soles
-            segments = _persist(segments, *self._persisting)
+        if persisting is not None:  # the push goes on (_push_persistence): its shift moves
+            segments = _persist(segments, *persisting)  # the soles' CoP boxes
         region = self.sole_box([landed[-1]])
         return timing.capture_shortfall(xi, segments, region, self.b)
 

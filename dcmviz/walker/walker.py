@@ -158,7 +158,7 @@ class Walker:
             if state.external_moment is not None:  # (−τ̂_y, τ̂_x, 0)/(m g) (moment_shift)
                 tx, ty, _ = np.asarray(state.external_moment, float).tolist()
                 mg = m * GRAVITY
-                sx, sy, sz = sx + -ty / mg, sy + tx / mg, sz + 0.0 / mg
+                sx, sy, sz = sx + -ty / mg, sy + tx / mg, sz + 0.0
         else:
             f_hat = np.zeros(3)
             fx = fy = fz = sx = sy = sz = 0.0
